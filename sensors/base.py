@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import StrEnum
 from types import TracebackType
 from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
-
 
 # ---------------------------------------------------------------- payloads
 
@@ -119,7 +118,7 @@ class SensorSpec:
     pads: int | None = None  # pads only
 
 
-class SensorState(str, Enum):
+class SensorState(StrEnum):
     CLOSED = "closed"
     CONNECTED = "connected"
     RECONNECTING = "reconnecting"

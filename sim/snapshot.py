@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]  # x, y, z, w (pybullet's order)
 
 
-class CharacterState(str, Enum):
+class CharacterState(StrEnum):
     """The control state machine (Mitake et al. 2009, Figure 3)."""
 
     WALK = "walk"  # upright, balanced by the inverted-pendulum state feedback

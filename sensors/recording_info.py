@@ -1,0 +1,227 @@
+"""What a recording holds (``jostle info``), and its frames one by one (what ``Replay`` plays).
+
+Damage is reported with ``warnings.warn`` and the category :class:`RecordingDamaged` (a
+``UserWarning``): the frames before the damage are kept, the user is told once which file broke,
+at which byte and at which time, and tests can catch it with ``pytest.warns``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from sensors.base import (
+    ColorImage,
+    DepthImage,
+    Frame,
+    PadSample,
+    Payload,
+    RecordingCorrupt,
+    SensorUnavailable,
+)
+from sensors.mcap_codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
+from sensors.recording_stream import RecordingStream
+
+FRAME_KINDS = ("color", "depth", "pads")
+METADATA_NAME = "jostle"
+
+
+class RecordingDamaged(UserWarning):
+    """A recording is truncated or corrupt; the frames before the damage are still played."""
+
+
+def warn_damage(text: str) -> None:
+    warnings.warn(text, RecordingDamaged, stacklevel=3)
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelInfo:
+    """One channel of a recording. ``kind`` is the payload kind for sensor channels ("color",
+    "depth", "pads"), else the channel's role ("calibration", "aligned_color", "other")."""
+
+    topic: str
+    kind: str
+    schema_name: str
+    message_count: int
+    first_ns: int
+    last_ns: int
+    rate_hz: float
+    width: int | None = None
+    height: int | None = None
+    pads: int | None = None
+
+    @property
+    def first_t(self) -> float:
+        return self.first_ns / 1e9
+
+    @property
+    def last_t(self) -> float:
+        return self.last_ns / 1e9
+
+    @property
+    def is_sensor(self) -> bool:
+        """True for channels that replay as a sensor (not calibration or aligned colour)."""
+        return self.kind in FRAME_KINDS
+
+
+@dataclass(frozen=True, slots=True)
+class RecordingInfo:
+    path: Path
+    channels: tuple[ChannelInfo, ...]
+    duration: float  # seconds from the first to the last sensor message
+    size_bytes: int
+    metadata: dict[str, str]  # the "jostle" metadata record; other records as "name.key"
+    truncated: bool  # damaged or cut short: only the messages before the damage are counted
+    damage: str = ""  # where and why, when truncated
+    first_ns: int = 0  # first sensor message time, ns (Replay's time origin)
+    last_ns: int = 0
+    complete: bool = True  # footer and closing magic present
+
+    @property
+    def sensor_channels(self) -> tuple[ChannelInfo, ...]:
+        return tuple(c for c in self.channels if c.is_sensor)
+
+
+@dataclass
+class _Tally:
+    role: ChannelRoleInfo
+    schema_name: str
+    count: int = 0
+    first_ns: int = 0
+    last_ns: int = 0
+    size: tuple[int, int] | None = None
+    pads: int | None = None
+
+
+def describe_recording(path: Path) -> RecordingInfo:
+    """Read the whole recording once (decoding only the first frame of each sensor, for its size).
+
+    Raises SensorUnavailable if the file is missing, RecordingCorrupt if it is not MCAP. Damage
+    does not raise: ``truncated`` is set and ``damage`` says where.
+    """
+    stream = RecordingStream(Path(path))
+    tallies: dict[int, _Tally] = {}
+    assemblers: dict[str, PayloadAssembler] = {}
+    sized: set[str] = set()  # sensors whose first frame was decoded for its size
+    for msg in stream.messages():
+        t = tallies.get(msg.channel.id)
+        if t is None:
+            role = classify_channel(msg.channel, msg.schema)
+            t = tallies[msg.channel.id] = _Tally(role, msg.schema.name if msg.schema else "", first_ns=msg.log_time_ns)
+        t.count += 1
+        t.last_ns = max(t.last_ns, msg.log_time_ns)
+        t.first_ns = min(t.first_ns, msg.log_time_ns)
+        sensor = t.role.sensor
+        if t.role.role in ("frame", "calibration", "aligned_color") and sensor not in sized:
+            assembler = assemblers.setdefault(sensor, PayloadAssembler())
+            try:
+                payload = assembler.feed(t.role, msg.channel, msg.schema, msg.sequence, msg.log_time_ns, msg.data)
+            except CodecError:  # left for Replay to report, with the frames before it
+                payload = None
+            if t.role.role == "frame":
+                sized.add(sensor)
+            if isinstance(payload, ColorImage | DepthImage):
+                t.size = payload.size
+            elif isinstance(payload, PadSample):
+                t.pads = len(payload.newtons)
+    channels = []
+    for cid in sorted(tallies):
+        t = tallies[cid]
+        topic = stream.channels[cid].topic
+        kind = t.role.kind if t.role.role == "frame" and t.role.kind in FRAME_KINDS else t.role.role
+        span = (t.last_ns - t.first_ns) / 1e9
+        rate = (t.count - 1) / span if t.count > 1 and span > 0 else 0.0
+        w, h = t.size if t.size else (None, None)
+        channels.append(ChannelInfo(topic, kind, t.schema_name, t.count, t.first_ns, t.last_ns, rate, w, h, t.pads))
+    sensors = [c for c in channels if c.is_sensor] or channels
+    first = min((c.first_ns for c in sensors), default=0)
+    last = max((c.last_ns for c in sensors), default=0)
+    metadata: dict[str, str] = {}
+    for name, record in stream.metadata.items():
+        for key, value in record.items():
+            metadata[key if name == METADATA_NAME else f"{name}.{key}"] = value
+    damage = stream.damage.describe(stream.path) if stream.damage else ""
+    return RecordingInfo(
+        path=stream.path, channels=tuple(channels), duration=(last - first) / 1e9, size_bytes=stream.size_bytes,
+        metadata=metadata, truncated=stream.damage is not None, damage=damage, first_ns=first, last_ns=last,
+        complete=stream.complete,
+    )
+
+
+def select_channel(info: RecordingInfo, channel: str | None) -> ChannelInfo:
+    """The sensor channel to replay: the named one, or the only one. Errors list what is there."""
+    sensors = info.sensor_channels
+    listing = ", ".join(f"{c.topic} ({c.kind})" for c in sensors)
+    if not sensors:
+        why = f"; {info.damage}" if info.truncated else ""
+        error = RecordingCorrupt if info.truncated else SensorUnavailable
+        raise error(f"{info.path}: the recording holds no sensor frames{why}")
+    if channel:
+        for c in sensors:
+            if c.topic == channel:
+                return c
+        raise SensorUnavailable(f"{info.path}: no sensor channel {channel!r}; it holds {listing}")
+    if len(sensors) > 1:
+        raise SensorUnavailable(f"{info.path}: the recording holds {len(sensors)} sensor channels ({listing}); "
+                                "choose one with channel = \"<name>\"")
+    return sensors[0]
+
+
+def iter_payloads(
+    path: Path, channel: str, on_damage: Callable[[str], None] | None = warn_damage
+) -> Iterator[tuple[int, int, Payload]]:
+    """(log time ns, sequence, payload) of one sensor channel, in file order.
+
+    Stops at the first damage (structural or an undecodable message) and calls ``on_damage`` once
+    with a one-line description.
+    """
+    stream = RecordingStream(Path(path))
+    assembler = PayloadAssembler()
+    last_ns: int | None = None
+    count = 0
+    for msg in stream.messages():
+        role = classify_channel(msg.channel, msg.schema)
+        if role.sensor != channel or role.role not in ("frame", "calibration", "aligned_color"):
+            continue
+        try:
+            payload = assembler.feed(role, msg.channel, msg.schema, msg.sequence, msg.log_time_ns, msg.data)
+        except CodecError as e:
+            if on_damage is not None:
+                kept = f"the last good frame at t={last_ns / 1e9:.3f} s" if last_ns is not None else "no frame before it"
+                on_damage(f"{stream.path}: message on {msg.channel.topic!r} in the record at byte {msg.offset} "
+                          f"cannot be decoded ({e}); {count} frames kept, {kept}")
+            return
+        if payload is not None:
+            last_ns = msg.log_time_ns
+            count += 1
+            yield msg.log_time_ns, msg.sequence, payload
+    if stream.damage is not None and on_damage is not None:
+        on_damage(stream.damage.describe(stream.path))
+
+
+def iter_frames(path: Path, channel: str | None = None) -> Iterator[Frame]:
+    """The frames of one sensor channel (the only one if ``channel`` is None), times in seconds."""
+    topic = channel or select_channel(describe_recording(Path(path)), None).topic
+    for t_ns, seq, payload in iter_payloads(Path(path), topic):
+        yield Frame(sensor=topic, t=t_ns / 1e9, seq=seq, payload=payload)
+
+
+def format_info(info: RecordingInfo) -> str:
+    """A readable multi-line summary for ``jostle info``."""
+    lines = [
+        f"recording  {info.path}",
+        f"size       {info.size_bytes / 1e6:.2f} MB, {len(info.channels)} channels, "
+        f"{info.duration:.3f} s (t {info.first_ns / 1e9:.3f} to {info.last_ns / 1e9:.3f} s)",
+    ]
+    if info.metadata:
+        lines.append("metadata   " + ", ".join(f"{k}={v}" for k, v in sorted(info.metadata.items())))
+    lines.append("channels")
+    width = max((len(c.topic) for c in info.channels), default=5)
+    for c in info.channels:
+        shape = f"{c.width}x{c.height}" if c.width is not None else (f"{c.pads} pads" if c.pads is not None else "")
+        lines.append(f"  {c.topic:<{width}}  {c.kind:<13} {c.schema_name:<26} {c.message_count:>7} msgs "
+                     f"{c.rate_hz:7.2f} Hz  {shape:<9} t {c.first_t:.3f} to {c.last_t:.3f} s")
+    lines.append(f"status     {'DAMAGED: ' + info.damage if info.truncated else 'complete'}")
+    return "\n".join(lines)

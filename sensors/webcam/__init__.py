@@ -1,0 +1,1 @@
+"""Webcams, video files and video streams through OpenCV (imported only by ``driver.py``)."""
