@@ -1,0 +1,136 @@
+"""Who stands in front of the webcam: a frozen background, light compensation, shadow suppression.
+
+The background is the per-pixel median of the first frames (the stage is empty then), along with
+each pixel's own noise. A frame is compared against it after undoing global light change (a gain
+per colour channel, measured where no one stood in the last frame). A pixel is foreground when its
+colour is far from the background's, unless it is merely a shadow: darker by a bounded ratio
+with the background's colour. The background follows the room slowly only while no one is in view.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from interaction.webcam_config import WebcamObserverConfig
+
+__all__ = ["BackgroundModel"]
+
+_GAIN_STRIDE = 6  # measure the light gain on every 6th pixel in each direction
+_MIN_BG_LEVEL = 12.0  # background channel values below this tell nothing about the gain
+_CHI3_MEDIAN = 1.54  # median of |3-D standard normal|: turns a median distance into a per-channel σ
+
+
+class BackgroundModel:
+    """The learned empty stage and the per-frame foreground test against it."""
+
+    def __init__(self, config: WebcamObserverConfig) -> None:
+        self._cfg = config
+        k = config.morphology_px
+        self._kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
+        self._learned: list[np.ndarray] = []
+        self._bg: np.ndarray | None = None  # float32 (H, W, 3)
+        self._bg_sq: np.ndarray | None = None  # its square, per channel
+        self._thr2: np.ndarray | None = None  # float32 (H, W): squared distance threshold per pixel
+        self._gain = (1.0, 1.0, 1.0)
+        self._empty_run = 0
+
+    # ------------------------------------------------------------ state
+
+    @property
+    def learning(self) -> bool:
+        return self._bg is None
+
+    @property
+    def size(self) -> tuple[int, int] | None:
+        """(width, height) of the learned background, or of the frames being learned."""
+        ref = self._bg if self._bg is not None else (self._learned[0] if self._learned else None)
+        return None if ref is None else (int(ref.shape[1]), int(ref.shape[0]))
+
+    @property
+    def background(self) -> np.ndarray | None:
+        """The learned background as uint8 BGR (a copy), or None while learning."""
+        return None if self._bg is None else np.clip(self._bg + 0.5, 0, 255).astype(np.uint8)
+
+    @property
+    def gain(self) -> tuple[float, float, float]:
+        """The last measured light gain per channel (B, G, R): frame ≈ gain × background."""
+        return self._gain
+
+    def relearn(self) -> None:
+        """Forget the background; the next ``learn_frames`` frames learn it again."""
+        self._learned.clear()
+        self._bg = None
+        self._bg_sq = None
+        self._thr2 = None
+        self._gain = (1.0, 1.0, 1.0)
+        self._empty_run = 0
+
+    def learn(self, bgr: np.ndarray) -> None:
+        """Take one frame of the empty stage; the last of ``learn_frames`` fixes the background."""
+        self._learned.append(np.array(bgr, dtype=np.uint8, copy=True))
+        if len(self._learned) < self._cfg.learn_frames:
+            return
+        stack = np.stack(self._learned)
+        bg = np.median(stack, axis=0).astype(np.float32)
+        dist = np.sqrt(((stack.astype(np.float32) - bg) ** 2).sum(axis=3))  # (K, H, W)
+        sigma = np.median(dist, axis=0) / _CHI3_MEDIAN
+        sigma = cv2.blur(sigma.astype(np.float32), (5, 5))
+        thr = np.maximum(np.float32(self._cfg.diff_threshold), np.float32(self._cfg.noise_sigmas) * sigma)
+        self._bg = bg
+        self._bg_sq = bg * bg
+        self._thr2 = (thr * thr).astype(np.float32)
+        self._learned.clear()
+
+    # ------------------------------------------------------------ per frame
+
+    def foreground(self, bgr: np.ndarray, ignore: np.ndarray | None = None) -> np.ndarray:
+        """The cleaned foreground mask (uint8 0/255) of a frame.
+
+        ``ignore`` (uint8/bool, same size) marks pixels to leave out of the light measurement
+        (where people stood last frame).
+        """
+        if self._bg is None or self._bg_sq is None or self._thr2 is None:
+            raise RuntimeError("BackgroundModel.foreground called while still learning")
+        cfg = self._cfg
+        img = bgr.astype(np.float32)
+        self._gain = self._measure_gain(img, ignore)
+        g = np.asarray(self._gain, dtype=np.float32)
+        bg = cv2.transform(self._bg, np.diag(g))  # the background under this frame's light
+        d = cv2.subtract(img, bg)
+        ones = np.ones((1, 3), dtype=np.float32)
+        dd = cv2.transform(cv2.multiply(d, d), ones)  # |I − B|²
+        fg = dd > self._thr2
+        db = cv2.transform(cv2.multiply(d, bg), ones)  # (I − B)·B
+        bb = cv2.transform(self._bg_sq, (g * g)[None, :]) + np.float32(1e-3)  # |B|²
+        ratio_minus_1 = db / bb  # brightness ratio α − 1, with I ≈ α B + colour distortion
+        cd2 = dd - db * ratio_minus_1  # squared colour distortion |I − α B|²
+        alpha = ratio_minus_1 + np.float32(1.0)
+        tol = np.float32(cfg.shadow_colour_tolerance) * alpha
+        shadow = (alpha >= cfg.shadow_min_ratio) & (alpha <= 1.0) & (cd2 <= tol * tol * bb + 0.25 * self._thr2)
+        mask = (fg & ~shadow).view(np.uint8) * np.uint8(255)
+        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._kernel)
+        return cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._kernel)
+
+    def refresh(self, bgr: np.ndarray, someone_in_view: bool) -> None:
+        """Blend the frame into the background once no one has been in view for a while."""
+        if self._bg is None:
+            return
+        self._empty_run = 0 if someone_in_view else self._empty_run + 1
+        if self._empty_run > self._cfg.refresh_after_empty_frames and self._cfg.refresh_rate > 0:
+            cv2.accumulateWeighted(bgr, self._bg, self._cfg.refresh_rate)
+            self._bg_sq = cv2.multiply(self._bg, self._bg)
+
+    def _measure_gain(self, img: np.ndarray, ignore: np.ndarray | None) -> tuple[float, float, float]:
+        assert self._bg is not None
+        s = _GAIN_STRIDE
+        frame = img[::s, ::s].reshape(-1, 3)
+        bg = self._bg[::s, ::s].reshape(-1, 3)
+        keep = np.all(bg > _MIN_BG_LEVEL, axis=1)
+        if ignore is not None:
+            keep &= ignore[::s, ::s].reshape(-1) == 0
+        if np.count_nonzero(keep) < 50:
+            return self._gain
+        ratios = frame[keep] / bg[keep]
+        g = np.clip(np.median(ratios, axis=0), 0.25, 4.0)
+        return float(g[0]), float(g[1]), float(g[2])

@@ -1,0 +1,271 @@
+"""The webcam observer: colour frames of people → contactors in stage metres.
+
+Per frame: foreground against the frozen background (light change undone, shadows suppressed,
+cleaned by morphology; see :mod:`interaction.silhouette`), blobs → people with ids kept by
+nearest centroid, points along each outline plus head/hands/feet (:mod:`interaction.people`),
+each with a velocity from DIS dense optical flow, all mapped through the :class:`Calibration`
+onto the stage plane. Pure of hardware: feed it :class:`sensors.Frame` objects from anywhere.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from interaction.calibration import Calibration
+from interaction.people import Blob, PeopleTracker, find_blobs, outline_points
+from interaction.silhouette import BackgroundModel
+from interaction.types import BodyObservation, Contactor
+from interaction.webcam_config import FlowPreset, WebcamObserverConfig
+from sensors.base import ColorImage, Frame
+
+__all__ = ["WebcamObserver", "WebcamObserverConfig"]
+
+_DIS_PRESETS: dict[FlowPreset, int] = {
+    "ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
+    "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
+    "medium": cv2.DISOPTICAL_FLOW_PRESET_MEDIUM,
+}
+_RADIUS_PER_SPACING = 0.6  # derived radius: neighbouring outline contactors overlap a little
+_FLOW_MARGIN = 24  # work pixels of context around the people for the optical flow
+
+
+class WebcamObserver:
+    """Turns colour frames into a :class:`BodyObservation` of webcam contactors.
+
+    The first ``config.learn_frames`` frames learn the empty stage; meanwhile (``learning``)
+    every observation is empty. Contactors are capsules along the stage's y axis at
+    ``calibration.plane_y`` ± ``calibration.half_depth``; velocities have no y part.
+    """
+
+    def __init__(self, config: WebcamObserverConfig, calibration: Calibration) -> None:
+        self._cfg = config
+        self._cal = calibration
+        self._background = BackgroundModel(config)
+        self._tracker: PeopleTracker | None = None
+        self._flow = cv2.DISOpticalFlow.create(_DIS_PRESETS[config.flow_preset])
+        self._flow.setFinestScale(config.flow_finest_scale)
+        self._input_size: tuple[int, int] | None = None  # (width, height) of the frames, fixed by the first one
+        self._scale = 1.0  # work pixels per input pixel
+        self._prev_grey: np.ndarray | None = None
+        self._prev_t: float | None = None
+        self._mask: np.ndarray | None = None  # people at work size
+        self._silhouette: np.ndarray | None = None  # people at input size, made when asked for
+        self._flow_px: np.ndarray | None = None
+
+    # ------------------------------------------------------------ read-only views
+
+    @property
+    def config(self) -> WebcamObserverConfig:
+        return self._cfg
+
+    @property
+    def calibration(self) -> Calibration:
+        return self._cal
+
+    @property
+    def learning(self) -> bool:
+        """True until the background has been learned from the first frames."""
+        return self._background.learning
+
+    @property
+    def silhouette(self) -> np.ndarray | None:
+        """The last frame's people as a uint8 mask the size of the frames (255 = a person, holes
+        filled), read-only; None while learning."""
+        if self._silhouette is None and self._mask is not None and self._input_size is not None:
+            sil = self._mask
+            if sil.shape[::-1] != self._input_size:
+                sil = cv2.resize(sil, self._input_size, interpolation=cv2.INTER_NEAREST)
+            sil.flags.writeable = False
+            self._silhouette = sil
+        return self._silhouette
+
+    @property
+    def work_silhouette(self) -> np.ndarray | None:
+        """The last frame's people at work size (see ``WebcamObserverConfig.work_width``), read-only."""
+        return self._mask
+
+    @property
+    def background(self) -> np.ndarray | None:
+        """The learned empty stage (uint8 BGR copy), None while learning."""
+        return self._background.background
+
+    @property
+    def light_gain(self) -> tuple[float, float, float]:
+        """The last frame's light relative to the background, per channel (B, G, R)."""
+        return self._background.gain
+
+    @property
+    def flow(self) -> np.ndarray | None:
+        """The last backward optical flow at work size (h, w, 2), in work pixels: where each pixel was
+        in the previous frame, relative to where it is now. Computed only in a box around the people
+        (0 elsewhere); None when not computed (no one in view, or only people seen for the first time)."""
+        return self._flow_px
+
+    def relearn(self) -> None:
+        """Forget the background and the people; the next frames learn the empty stage again."""
+        self._background.relearn()
+        self._tracker = None
+        self._input_size = None
+        self._mask = None
+        self._silhouette = None
+        self._flow_px = None
+
+    # ------------------------------------------------------------ per frame
+
+    def observe(self, frame: Frame) -> BodyObservation:
+        """The people in one colour frame. Raises ValueError on a frame that is not a colour image,
+        or whose size differs from the calibration's or from the frames before it."""
+        work = self._work_image(self._check(frame))
+        grey = cv2.cvtColor(work, cv2.COLOR_BGR2GRAY)
+        prev_grey, prev_t = self._prev_grey, self._prev_t
+        self._prev_grey, self._prev_t = grey, frame.t
+        self._flow_px = None
+
+        if self._background.learning:
+            self._background.learn(work)
+            return BodyObservation(t=frame.t)
+
+        cfg = self._cfg
+        h, w = grey.shape
+        mask = self._background.foreground(work, ignore=self._ignore_for_light())
+        blobs = find_blobs(mask, cfg.min_blob_area * w * h, cfg.max_people)
+        self._background.refresh(work, someone_in_view=bool(blobs))
+
+        people = np.zeros_like(mask)
+        if blobs:
+            cv2.drawContours(people, [b.contour.reshape(-1, 1, 2) for b in blobs], -1, 255, cv2.FILLED)
+        people.flags.writeable = False
+        self._mask, self._silhouette = people, None
+        if self._tracker is None:
+            self._tracker = PeopleTracker(cfg.match_distance * math.hypot(w, h), cfg.track_memory_frames)
+        ids = self._tracker.assign([b.centroid for b in blobs])  # also ages the people not seen
+        if not blobs:
+            return BodyObservation(t=frame.t)
+        born = self._tracker.born
+
+        dt = frame.t - prev_t if prev_t is not None else 0.0
+        if prev_grey is not None and dt > 0 and len(born) < len(ids):
+            self._flow_px = self._people_flow(grey, prev_grey, blobs)
+
+        contactors: list[Contactor] = []
+        for pid, blob in sorted(zip(ids, blobs, strict=True), key=lambda p: p[0]):
+            contactors.extend(self._contactors(pid, blob, people, 0.0 if pid in born else dt))
+        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(blobs))
+
+    # ------------------------------------------------------------ internals
+
+    def _check(self, frame: Frame) -> np.ndarray:
+        p = frame.payload
+        if not isinstance(p, ColorImage):
+            raise ValueError(
+                f"WebcamObserver: frame {frame.seq} from sensor {frame.sensor!r} carries a {frame.kind} payload; "
+                "expected a colour image"
+            )
+        bgr = p.bgr
+        if bgr.dtype != np.uint8 or bgr.ndim != 3 or bgr.shape[2] != 3:
+            raise ValueError(
+                f"WebcamObserver: frame {frame.seq} from sensor {frame.sensor!r}: expected uint8 BGR (H, W, 3), "
+                f"got {bgr.dtype} {bgr.shape}"
+            )
+        size = p.size
+        want = self._cal.image_size
+        if want is not None and size != want:
+            raise ValueError(
+                f"WebcamObserver: frame {frame.seq} from sensor {frame.sensor!r} is {size[0]}×{size[1]}, "
+                f"but the calibration was made for {want[0]}×{want[1]}"
+            )
+        if self._input_size is None:
+            self._input_size = size
+            ww = self._cfg.work_width
+            self._scale = ww / size[0] if 0 < ww < size[0] else 1.0
+        elif size != self._input_size:
+            first = self._input_size
+            raise ValueError(
+                f"WebcamObserver: frame {frame.seq} from sensor {frame.sensor!r} is {size[0]}×{size[1]}, "
+                f"but the frames before were {first[0]}×{first[1]} (call relearn() after changing the camera)"
+            )
+        return bgr
+
+    def _work_image(self, bgr: np.ndarray) -> np.ndarray:
+        if self._scale == 1.0:
+            return bgr
+        h, w = bgr.shape[:2]
+        size = (max(1, round(w * self._scale)), max(1, round(h * self._scale)))
+        return cv2.resize(bgr, size, interpolation=cv2.INTER_AREA)
+
+    def _to_input_px(self, uv_work: np.ndarray) -> np.ndarray:
+        """Work pixel coordinates → input pixel coordinates (pixel centres kept aligned)."""
+        if self._scale == 1.0:
+            return uv_work
+        return (uv_work + 0.5) / self._scale - 0.5
+
+    def _ignore_for_light(self) -> np.ndarray | None:
+        """Where people stood last frame, grown a little: left out of the light measurement."""
+        if self._mask is None or not self._mask.any():
+            return None
+        k = 2 * self._cfg.morphology_px + 1
+        return cv2.dilate(self._mask, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
+
+    def _people_flow(self, grey: np.ndarray, prev_grey: np.ndarray, blobs: list[Blob]) -> np.ndarray:
+        """Backward DIS flow (current → previous frame) over the box around all people plus a margin
+        (the rest of the frame is left 0: it is never sampled)."""
+        h, w = grey.shape
+        pts = np.concatenate([b.contour for b in blobs])
+        m = _FLOW_MARGIN
+        u0, v0 = max(0, int(pts[:, 0].min()) - m), max(0, int(pts[:, 1].min()) - m)
+        u1, v1 = min(w, int(pts[:, 0].max()) + m + 1), min(h, int(pts[:, 1].max()) + m + 1)
+        flow = np.zeros((h, w, 2), dtype=np.float32)
+        # None: no initial flow (OpenCV's stubs demand an array, which DIS would take as one)
+        now, before = np.ascontiguousarray(grey[v0:v1, u0:u1]), np.ascontiguousarray(prev_grey[v0:v1, u0:u1])
+        crop = self._flow.calc(now, before, None)  # type: ignore[call-overload]
+        flow[v0:v1, u0:u1] = crop
+        return flow
+
+    def _contactors(self, person: int, blob: Blob, people: np.ndarray, dt: float) -> list[Contactor]:
+        """One person's contactors; ``dt`` ≤ 0 gives them no velocity (first sight, no interval)."""
+        cfg = self._cfg
+        uv_px, parts = outline_points(blob.contour, cfg.contour_spacing_px * self._scale, people.shape[::-1])
+        uv = self._to_input_px(uv_px.astype(np.float64))
+        pos = self._cal.image_to_stage(uv)
+        if self._flow_px is not None and dt > 0:
+            back = _median_flow(self._flow_px, people, uv_px, cfg.flow_window_px)
+            vel = (pos - self._cal.image_to_stage(uv + back / self._scale)) / dt
+            vel[:, 1] = 0.0
+        else:
+            vel = np.zeros_like(pos)
+        if cfg.contactor_radius_m > 0:
+            radius = np.full(len(parts), cfg.contactor_radius_m)
+        else:
+            radius = _RADIUS_PER_SPACING * cfg.contour_spacing_px * self._cal.metres_per_pixel(uv)
+        half_depth = self._cal.half_depth
+        p, v, r = pos.tolist(), vel.tolist(), radius.tolist()
+        return [
+            Contactor(person, part, (p[i][0], p[i][1], p[i][2]), (v[i][0], 0.0, v[i][2]), r[i], half_depth)
+            for i, part in enumerate(parts)
+        ]
+
+
+def _median_flow(flow: np.ndarray, mask: np.ndarray, uv: np.ndarray, window: int) -> np.ndarray:
+    """Per point (N, 2 int pixels), the median flow (N, 2) over the masked pixels of a window
+    centred on it (the point's own flow if none of the window is masked)."""
+    h, w = mask.shape
+    r = window // 2
+    offs = np.arange(-r, r + 1)
+    du, dv = np.meshgrid(offs, offs)
+    uu = np.clip(uv[:, 0:1] + du.reshape(1, -1), 0, w - 1)  # (N, window²)
+    vv = np.clip(uv[:, 1:2] + dv.reshape(1, -1), 0, h - 1)
+    inside = mask[vv, uu] > 0
+    centre = du.size // 2
+    inside[:, centre] |= ~inside.any(axis=1)  # no masked pixel near: the point's own flow
+    count = inside.sum(axis=1)
+    rows = np.arange(len(uv))
+    lo, hi = (count - 1) // 2, count // 2
+    out = np.empty((len(uv), 2), dtype=np.float64)
+    for c in range(2):
+        vals = np.where(inside, flow[vv, uu, c], np.inf)
+        vals.sort(axis=1)  # the masked values first, in order
+        out[:, c] = 0.5 * (vals[rows, lo] + vals[rows, hi])
+    return out

@@ -1,0 +1,99 @@
+"""The settings of the webcam observer (one frozen, validated dataclass; built from TOML by jostle/)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+__all__ = ["FlowPreset", "WebcamObserverConfig"]
+
+FlowPreset = Literal["ultrafast", "fast", "medium"]
+
+
+def _need(ok: bool, name: str, expected: str, value: object) -> None:
+    if not ok:
+        raise ValueError(f"{name}: expected {expected}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class WebcamObserverConfig:
+    """How colour frames become people and contactors.
+
+    Work size: frames wider than ``work_width`` pixels are shrunk to that width first (0: never);
+    ``morphology_px`` and ``flow_window_px`` count pixels of the shrunk frame, ``contour_spacing_px``
+    pixels of the original frame (the calibration's).
+
+    Background: the median of the first ``learn_frames`` frames (the stage must be empty then),
+    refreshed at ``refresh_rate`` per frame only once no one has been in view for
+    ``refresh_after_empty_frames`` frames. Global light change is undone before differencing
+    (per-channel gain of the frame against the background, measured where no one stands).
+
+    Foreground: colour distance to the background above ``diff_threshold`` (BGR units 0–255) and
+    above ``noise_sigmas`` × the pixel's own noise measured while learning; minus shadows: pixels
+    darker than the background by a ratio in [``shadow_min_ratio``, 1] whose colour is the
+    background's within ``shadow_colour_tolerance`` (a fraction of the brightness).
+
+    People: blobs of at least ``min_blob_area`` (fraction of the image) after a morphological
+    open/close of ``morphology_px``; at most ``max_people`` (largest first); ids follow the nearest
+    centroid within ``match_distance`` (fraction of the image diagonal) and survive
+    ``track_memory_frames`` frames unseen.
+
+    Contactors: along each outer outline every ``contour_spacing_px`` pixels, plus head (top),
+    hands (extreme left and right) and feet (lowest points left and right of the centre).
+    Radius ``contactor_radius_m`` metres, or 0 to derive it from the spacing (0.6 × spacing at
+    the local image scale). Velocity: the median DIS optical flow (``flow_preset``, its finest
+    pyramid level overridden by ``flow_finest_scale``: 0 full work size, 1 half, 2 quarter) over the
+    person's pixels in a ``flow_window_px`` square at each contactor, over the frame interval.
+    """
+
+    work_width: int = 320
+    learn_frames: int = 10
+    diff_threshold: float = 30.0
+    noise_sigmas: float = 4.0
+    shadow_min_ratio: float = 0.45
+    shadow_colour_tolerance: float = 0.12
+    morphology_px: int = 5
+    min_blob_area: float = 0.01
+    max_people: int = 4
+    contour_spacing_px: float = 12.0
+    contactor_radius_m: float = 0.0
+    flow_preset: FlowPreset = "ultrafast"
+    flow_finest_scale: int = 1
+    flow_window_px: int = 7
+    match_distance: float = 0.2
+    track_memory_frames: int = 15
+    refresh_rate: float = 0.02
+    refresh_after_empty_frames: int = 30
+
+    def __post_init__(self) -> None:
+        def whole(name: str, lo: int, hi: int) -> None:
+            v = getattr(self, name)
+            _need(type(v) is int and lo <= v <= hi, name, f"a whole number from {lo} to {hi}", v)
+
+        def number(name: str, lo: float, hi: float, lo_open: bool = False) -> None:
+            v = getattr(self, name)
+            ok = isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            ok = ok and (lo < v if lo_open else lo <= v) and v <= hi
+            _need(ok, name, f"a number {'>' if lo_open else '≥'} {lo} and ≤ {hi}", v)
+
+        _need(type(self.work_width) is int and (self.work_width == 0 or 32 <= self.work_width <= 8192),
+              "work_width", "0 (never shrink) or a whole number of pixels from 32 to 8192", self.work_width)
+        whole("learn_frames", 1, 1000)
+        number("diff_threshold", 0.0, 442.0, lo_open=True)
+        number("noise_sigmas", 0.0, 100.0)
+        number("shadow_min_ratio", 0.0, 1.0)
+        number("shadow_colour_tolerance", 0.0, 1.0)
+        whole("morphology_px", 1, 99)
+        number("min_blob_area", 0.0, 1.0, lo_open=True)
+        whole("max_people", 1, 64)
+        number("contour_spacing_px", 1.0, 1000.0)
+        number("contactor_radius_m", 0.0, 10.0)
+        _need(self.flow_preset in ("ultrafast", "fast", "medium"), "flow_preset",
+              "one of 'ultrafast', 'fast', 'medium'", self.flow_preset)
+        whole("flow_finest_scale", 0, 4)
+        whole("flow_window_px", 1, 99)
+        number("match_distance", 0.0, 2.0, lo_open=True)
+        whole("track_memory_frames", 0, 100000)
+        number("refresh_rate", 0.0, 1.0)
+        whole("refresh_after_empty_frames", 0, 100000)
