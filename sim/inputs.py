@@ -1,0 +1,92 @@
+"""People's input made safe for pybullet: NaN, inf and absurd values are dropped or clamped, and counted.
+
+Nothing from an observation reaches pybullet without passing through ``clean_observation``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from interaction.types import BodyObservation
+from sim.config import WorldConfig
+from sim.frames import Vec3
+
+_FAR_M = 100.0  # positions farther than this from the stage origin are nonsense
+
+
+@dataclass(frozen=True, slots=True)
+class SafeContactor:
+    person: int
+    position: Vec3
+    velocity: Vec3
+    radius: float
+    half_depth: float
+
+
+@dataclass(frozen=True, slots=True)
+class SafeImpulse:
+    position: Vec3
+    force: Vec3
+    duration: float
+    source: str
+
+
+@dataclass(frozen=True, slots=True)
+class CleanedObservation:
+    contactors: tuple[SafeContactor, ...]
+    impulses: tuple[SafeImpulse, ...]
+    rejected: int  # items dropped (position or force unusable)
+    clamped: int  # values replaced or limited
+
+
+def _finite(v: Vec3) -> bool:
+    return len(v) == 3 and all(isinstance(c, int | float) and math.isfinite(c) for c in v)
+
+
+def _limit(v: Vec3, bound: float) -> tuple[Vec3, bool]:
+    n = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    if n <= bound:
+        return (float(v[0]), float(v[1]), float(v[2])), False
+    s = bound / n
+    return (v[0] * s, v[1] * s, v[2] * s), True
+
+
+def clean_observation(obs: BodyObservation, config: WorldConfig) -> CleanedObservation:
+    rejected = clamped = 0
+    contactors: list[SafeContactor] = []
+    for c in obs.contactors:
+        if not _finite(c.position) or max(abs(v) for v in c.position) > _FAR_M \
+                or not isinstance(c.radius, int | float) or not math.isfinite(c.radius) or c.radius <= 0.0:
+            rejected += 1
+            continue
+        velocity: Vec3 = (0.0, 0.0, 0.0)
+        if _finite(c.velocity):
+            velocity, cut = _limit(c.velocity, config.max_contactor_speed)
+            clamped += cut
+        else:
+            clamped += 1
+        radius = float(c.radius)
+        if radius > config.max_contactor_radius:
+            radius, clamped = config.max_contactor_radius, clamped + 1
+        half_depth = c.half_depth
+        if not isinstance(half_depth, int | float) or not math.isfinite(half_depth) or half_depth < 0.0:
+            half_depth, clamped = 0.0, clamped + 1
+        elif half_depth > config.max_contactor_radius * 4.0:
+            half_depth, clamped = config.max_contactor_radius * 4.0, clamped + 1
+        pos = (float(c.position[0]), float(c.position[1]), float(c.position[2]))
+        contactors.append(SafeContactor(int(c.person), pos, velocity, radius, float(half_depth)))
+    impulses: list[SafeImpulse] = []
+    for i in obs.impulses:
+        if not _finite(i.position) or max(abs(v) for v in i.position) > _FAR_M or not _finite(i.force) \
+                or not isinstance(i.duration, int | float) or not math.isfinite(i.duration) or i.duration <= 0.0:
+            rejected += 1
+            continue
+        force, cut = _limit(i.force, config.max_impulse_force_n)
+        clamped += cut
+        duration = float(i.duration)
+        if duration > config.max_impulse_duration_s:
+            duration, clamped = config.max_impulse_duration_s, clamped + 1
+        pos = (float(i.position[0]), float(i.position[1]), float(i.position[2]))
+        impulses.append(SafeImpulse(pos, force, duration, str(i.source)))
+    return CleanedObservation(tuple(contactors), tuple(impulses), rejected, clamped)

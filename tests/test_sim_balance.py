@@ -1,0 +1,163 @@
+"""The balance design and the state machine, without pybullet: the derivation checked on its own model."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as p
+import pytest
+
+from sim.balance import BalanceDesign, discretise, dlqr, expm, pendulum_matrices
+from sim.config import CharacterSpec
+from sim.frames import body_frame, tilt_rates, wrap_angle
+from sim.snapshot import CharacterState
+from sim.states import BalanceReading, StateMachine
+
+G = 9.81
+DT = 1 / 60
+
+
+def test_expm_matches_rotation_and_scalar() -> None:
+    w = 2.3
+    gen = np.array([[0.0, -w], [w, 0.0]])
+    e = expm(gen * 1.7)
+    assert np.allclose(e, [[math.cos(w * 1.7), -math.sin(w * 1.7)], [math.sin(w * 1.7), math.cos(w * 1.7)]],
+                       atol=1e-12)
+    assert np.allclose(expm(np.array([[3.0]])), [[math.exp(3.0)]], rtol=1e-12)
+
+
+def test_zero_order_hold_discretisation_integrates_a_constant_input() -> None:
+    # ẍ = u: after dt with u held, x = u dt²/2, v = u dt
+    a = np.array([[0.0, 1.0], [0.0, 0.0]])
+    b = np.array([[0.0], [1.0]])
+    ad, bd = discretise(a, b, 0.5)
+    assert np.allclose(ad, [[1.0, 0.5], [0.0, 1.0]])
+    assert np.allclose(bd, [[0.125], [0.5]])
+
+
+def test_lqr_stabilises_the_linearised_pendulum() -> None:
+    spec = CharacterSpec()
+    a, b = pendulum_matrices(spec.mass, spec.inertia, spec.com_height, G)
+    assert np.max(np.linalg.eigvals(a).real) > 5.0  # the open loop falls (ω ≈ 5.4 rad/s)
+    ad, bd = discretise(a, b, DT)
+    k = dlqr(ad, bd, np.diag([100.0, 1.0, 1.0]), np.diag([1e-4, 1e-3]))
+    assert np.max(np.abs(np.linalg.eigvals(ad - bd @ k))) < 1.0
+
+
+def _simulate_plane(design_gains: object, spec: CharacterSpec, theta: float, rate: float, v: float,
+                    seconds: float, mu: float = 0.8) -> tuple[float, float]:
+    """The linear plane model under the *bounded* feedback, integrated finely. Returns (max |θ|, final v)."""
+    from sim.balance import PlaneGains, friction_bound
+
+    assert isinstance(design_gains, PlaneGains)
+    m, i, length = spec.mass, spec.inertia, spec.com_height
+    h = 1 / 2400
+    limit = friction_bound(spec, mu, m * G)
+    worst = abs(theta)
+    for _ in range(int(seconds / DT)):
+        force, torque = design_gains.feedback(theta, rate, v)
+        force = max(-limit, min(limit, force))
+        for _ in range(int(DT / h)):
+            acc = (m * G * length * math.sin(theta) - length * math.cos(theta) * force + torque) / i
+            rate += acc * h
+            theta += rate * h
+            v += force / m * h
+        worst = max(worst, abs(theta))
+        if worst > 1.2:
+            break
+    return worst, v
+
+
+@pytest.mark.parametrize("plane", ["front", "side"])
+def test_capture_bound_separates_recovery_from_falling(plane: str) -> None:
+    """The criterion is tight for this bounded controller: 0.9 of the bound recovers, 1.05 falls."""
+    spec = CharacterSpec()
+    g = getattr(BalanceDesign.for_spec(spec, 0.8, G, DT), plane)
+    # a push leaves the body upright with a tilt rate; load = |rate/ω| / ξ_max
+    inside = 0.9 * g.xi_max * g.omega
+    assert g.load(0.0, inside) == pytest.approx(0.9)
+    worst, v = _simulate_plane(g, spec, 0.0, inside, 0.0, 6.0)
+    assert worst < 0.5 and abs(v) < 0.05  # recovered and stopped (goal velocity 0)
+    worst, _ = _simulate_plane(g, spec, 0.0, 1.05 * g.xi_max * g.omega, 0.0, 4.0)
+    assert worst > 1.0  # fell: the bounded inputs could not save it
+
+
+def test_tracks_goal_velocity_in_the_model() -> None:
+    spec = CharacterSpec()
+    g = BalanceDesign.for_spec(spec, 0.8, G, DT).front
+    # error state: v − goal; starting 0.8 m/s below the goal, the error must vanish without falling
+    worst, err = _simulate_plane(g, spec, 0.0, 0.0, -0.8, 5.0)
+    assert worst < 0.2 and abs(err) < 0.02
+
+
+def test_frames_heading_and_tilt_signs() -> None:
+    heading = 0.7
+    lean = 0.2
+    # lean forward: rotate about the character's left axis, after turning to the heading
+    q = p.getQuaternionFromEuler([0.0, lean, heading])  # yaw applied last: extrinsic X, Y, Z
+    f = body_frame(q)
+    assert f.heading == pytest.approx(heading, abs=1e-9)
+    assert f.tilt_x == pytest.approx(lean, abs=1e-9) and abs(f.tilt_z) < 1e-9
+    q = p.getQuaternionFromEuler([lean, 0.0, heading])  # +roll about forward: leans right
+    f = body_frame(q)
+    assert f.tilt_z == pytest.approx(lean, abs=1e-9) and abs(f.tilt_x) < 1e-9
+    # lying face down (pitched forward 90°) keeps its heading; face axis points down
+    f = body_frame(p.getQuaternionFromEuler([0.0, math.pi / 2, heading]))
+    assert f.heading == pytest.approx(heading, abs=1e-6) and not f.face_up
+    assert body_frame(p.getQuaternionFromEuler([0.0, -math.pi / 2, heading])).face_up
+    # a forward pitch rate shows up as θ̇x
+    up = body_frame(p.getQuaternionFromEuler([0.0, 0.0, heading]))
+    rx, rz = tilt_rates(up, (-math.sin(heading) * 1.5, math.cos(heading) * 1.5, 0.0))
+    assert rx == pytest.approx(1.5) and rz == pytest.approx(0.0, abs=1e-12)
+    assert wrap_angle(3 * math.pi) == pytest.approx(-math.pi)
+
+
+def _r(load: float = 0.0, tilt: float = 0.0, speed: float = 0.0, spin: float = 0.0, face_up: bool = True,
+       error: float = 0.0) -> BalanceReading:
+    return BalanceReading(load=load, tilt=tilt, speed=speed, spin=spin, face_up=face_up, stand_up_error=error)
+
+
+def test_state_machine_walks_the_whole_cycle() -> None:
+    spec = CharacterSpec()
+    m = StateMachine(spec)
+    S = CharacterState
+    seen = []
+    t = 0.0
+
+    def tick(r: BalanceReading, n: int = 1) -> None:
+        nonlocal t
+        for _ in range(n):
+            t += DT
+            ch = m.update(t, r)
+            if ch is not None:
+                seen.append(ch[1])
+
+    tick(_r(load=0.1), 5)
+    assert m.state is S.WALK
+    tick(_r(load=0.5))
+    assert m.state is S.STAGGER
+    tick(_r(load=0.05), int(spec.recover_hold_s / DT) + 2)
+    assert m.state is S.WALK
+    tick(_r(load=0.95))
+    assert m.state is S.FALL
+    tick(_r(load=math.inf, tilt=math.radians(40)), 3)
+    assert m.state is S.FALL
+    tick(_r(load=math.inf, tilt=math.radians(80), speed=1.0, spin=2.0), 10)
+    assert m.state is S.BRAKE
+    tick(_r(load=math.inf, tilt=math.radians(85), face_up=False), int(spec.still_hold_s / DT) + 2)
+    assert m.state is S.LIE and m.face_up is False
+    tick(_r(load=math.inf, tilt=math.radians(85), face_up=False), int(spec.lie_duration_s / DT) + 1)
+    assert m.state is S.STAND_UP and m.face_up is False
+    tick(_r(load=0.1, tilt=math.radians(3)))
+    assert m.state is S.WALK and m.face_up is None
+    assert seen == [S.STAGGER, S.WALK, S.FALL, S.BRAKE, S.LIE, S.STAND_UP, S.WALK]
+
+
+def test_state_machine_stand_up_knocked_over_falls_again() -> None:
+    spec = CharacterSpec()
+    m = StateMachine(spec)
+    m.force(CharacterState.STAND_UP, 0.0)
+    assert m.update(0.1, _r(load=math.inf, tilt=1.0, error=math.radians(50))) is None  # grace period
+    assert m.update(1.0, _r(load=math.inf, tilt=1.0, error=math.radians(50))) == (
+        CharacterState.STAND_UP, CharacterState.FALL)
