@@ -1,0 +1,293 @@
+"""Reading and writing keyframe sets: a manifest (``keyframes.toml``) and pose files (TOML).
+
+Manifest::
+
+    format = 1
+    skeleton = "humanoid"          # the skeleton the poses drive (render.mocap.HUMANOID)
+    height = 1.62                  # soles to head top when standing, in the poses' metres
+    default_behaviour = "walk"     # used for a behaviour B the set does not have (one warning)
+    poses = ["poses/walk.toml"]    # pose files, relative to this file
+
+    [interpolation]
+    cycle_weight = 0.5             # radians of tilt that weigh as much as a whole Dx/Dz cycle
+    sharpness = 2.0                # exponent of the inverse-distance weights between families
+
+    [[animation]]
+    name = "fall_forward"
+    behaviour = "walk"
+    family = "fall_forward"        # optional; parallel animations sharing one family are blended
+    axis = "theta_x"               # theta_x | theta_z | dx | dz
+    at = { theta_z = 0.0, dx = "any", dz = "any" }   # the other three coordinates: number or "any"
+    keys = [
+      { at = 0.0, family = "walk" },            # here: the pose family "walk" gives at this query
+      { at = 0.8, pose = "fall_forward_reach" },
+    ]
+
+Pose file: one table per pose, all in the rigid body's frame with the skeleton's axes (x forward,
+y up, z right), metres::
+
+    [fall_forward_reach]
+    root_offset = [0.0, 0.05, 0.0]                       # pelvis from the body origin (default 0)
+    root_rotation = { axis = [0, 0, 1], degrees = -20 }  # pelvis rotation (default none)
+    [fall_forward_reach.joints]                          # joints left out are not rotated
+    chest = { axis = [0, 0, 1], degrees = -10 }          # axis-angle, degrees …
+    neck = [0.0, 0.0, 0.087, 0.996]                      # … or a quaternion x y z w
+    right_knee = -30.0                                   # hinges (knees, elbows): degrees about z
+
+Every error is one line naming the file, the animation and key (or pose) and what was expected.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from render.interp import AXES, PERIODIC, Curve, Family
+from render.mocap import HUMANOID, JOINTS, Skeleton
+from render.pose_text import number, parse_pose
+
+FORMAT = 1
+SKELETONS: dict[str, Skeleton] = {"humanoid": HUMANOID}
+_TOP_KEYS = {"format", "skeleton", "height", "default_behaviour", "poses", "interpolation", "animation"}
+_ANIM_KEYS = {"name", "behaviour", "family", "axis", "at", "keys"}
+
+
+class KeyframeError(ValueError):
+    """A keyframe set that cannot be used; the message is one line naming file, animation and key."""
+
+
+@dataclass(frozen=True, eq=False)
+class SetData:
+    """Everything a keyframe set file holds, checked."""
+
+    skeleton: Skeleton
+    height: float
+    default_behaviour: str
+    cycle_weight: float
+    sharpness: float
+    families: dict[str, Family]
+    key_names: tuple[str, ...]
+    key_offsets: np.ndarray  # (K, 3)
+    key_rotations: np.ndarray  # (K, 1 + J, 4): root, then JOINTS order
+
+
+def _read_toml(path: Path, what: str) -> dict[str, Any]:
+    try:
+        with path.open("rb") as f:
+            return tomllib.load(f)
+    except FileNotFoundError:
+        raise KeyframeError(f"{path}: no such {what}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise KeyframeError(f"{path}: not valid TOML ({e})") from None
+
+
+def read_set(manifest: str | Path) -> SetData:
+    """Read and check a keyframe set; raises KeyframeError with one line naming file, animation, key."""
+    path = Path(manifest)
+    doc = _read_toml(path, "keyframe manifest")
+
+    def fail(msg: str) -> KeyframeError:
+        return KeyframeError(f"{path}: {msg}")
+
+    unknown = set(doc) - _TOP_KEYS
+    if unknown:
+        raise fail(f"{sorted(unknown)[0]}: unknown key; expected {', '.join(sorted(_TOP_KEYS))}")
+    if doc.get("format") != FORMAT:
+        raise fail(f"format: expected {FORMAT}, got {doc.get('format')!r}")
+    skel_name = doc.get("skeleton")
+    if skel_name not in SKELETONS:
+        raise fail(f"skeleton: expected one of {', '.join(SKELETONS)}, got {skel_name!r}")
+    height = number(doc.get("height"))
+    if height is None or height <= 0:
+        raise fail(f"height: expected metres > 0, got {doc.get('height')!r}")
+    interp = doc.get("interpolation", {})
+    if not isinstance(interp, dict) or set(interp) - {"cycle_weight", "sharpness"}:
+        raise fail("interpolation: expected a table with only cycle_weight and sharpness")
+    cycle_weight = number(interp.get("cycle_weight", 0.5))
+    if cycle_weight is None or cycle_weight <= 0:
+        raise fail(f"interpolation.cycle_weight: expected a number > 0, got {interp.get('cycle_weight')!r}")
+    sharpness = number(interp.get("sharpness", 2.0))
+    if sharpness is None or sharpness < 1:
+        raise fail(f"interpolation.sharpness: expected a number >= 1, got {interp.get('sharpness')!r}")
+
+    # ---- pose files: raw tables by name, parsed when a key first uses them
+    files = doc.get("poses")
+    if not isinstance(files, list) or not files or not all(isinstance(f, str) for f in files):
+        raise fail("poses: expected a list of pose file paths (relative to this file)")
+    raw: dict[str, tuple[Path, Any]] = {}
+    for rel in files:
+        ppath = path.parent / rel
+        for name, table in _read_toml(ppath, "pose file").items():
+            if name in raw:
+                raise KeyframeError(f"{ppath}: pose '{name}': defined twice (also in {raw[name][0]})")
+            raw[name] = (ppath, table)
+    names: list[str] = []
+    offsets: list[np.ndarray] = []
+    rotations: list[np.ndarray] = []
+    index: dict[str, int] = {}
+
+    def use_pose(name: str, where: str) -> int:
+        if name not in index:
+            ppath, table = raw[name]
+            try:
+                off, rot = parse_pose(table)
+            except ValueError as e:
+                raise KeyframeError(f"{ppath}: pose '{name}'{where}: {e}") from None
+            index[name] = len(names)
+            names.append(name)
+            offsets.append(off)
+            rotations.append(rot)
+        return index[name]
+
+    # ---- animations
+    anims = doc.get("animation")
+    if not isinstance(anims, list) or not anims:
+        raise fail("animation: expected at least one [[animation]] table")
+    curves: list[Curve] = []
+    for i, a in enumerate(anims):
+        curves.append(_read_animation(a, i, fail, raw, use_pose))
+    seen: set[str] = set()
+    for c in curves:
+        if c.name in seen:
+            raise fail(f"animation '{c.name}': name used twice")
+        seen.add(c.name)
+    for name in raw:  # poses no key uses are still checked
+        use_pose(name, "")
+    families = _families(curves, fail)
+    behaviours = {f.behaviour for f in families.values()}
+    default = doc.get("default_behaviour")
+    if default not in behaviours:
+        raise fail(f"default_behaviour: expected one of {', '.join(sorted(behaviours))}, got {default!r}")
+    return SetData(
+        skeleton=SKELETONS[skel_name],
+        height=height,
+        default_behaviour=default,
+        cycle_weight=cycle_weight,
+        sharpness=sharpness,
+        families=families,
+        key_names=tuple(names),
+        key_offsets=np.array(offsets).reshape(-1, 3),
+        key_rotations=np.array(rotations).reshape(-1, 1 + len(JOINTS), 4),
+    )
+
+
+def _read_animation(a: Any, i: int, fail: Any, raw: dict[str, Any], use_pose: Any) -> Curve:
+    if not isinstance(a, dict):
+        raise fail(f"animation {i}: expected a table")
+    name = a.get("name")
+    if not isinstance(name, str) or not name:
+        raise fail(f"animation {i}: name: expected a non-empty string")
+    where = f"animation '{name}'"
+    unknown = set(a) - _ANIM_KEYS
+    if unknown:
+        raise fail(f"{where}: {sorted(unknown)[0]}: unknown key; expected {', '.join(sorted(_ANIM_KEYS))}")
+    behaviour = a.get("behaviour")
+    if not isinstance(behaviour, str) or not behaviour:
+        raise fail(f"{where}: behaviour: expected a non-empty string")
+    family = a.get("family", name)
+    if not isinstance(family, str) or not family:
+        raise fail(f"{where}: family: expected a non-empty string")
+    axis_name = a.get("axis")
+    if axis_name not in AXES:
+        raise fail(f"{where}: axis: expected one of {', '.join(AXES)}, got {axis_name!r}")
+    axis = AXES.index(axis_name)
+    at = a.get("at")
+    others = [c for c in AXES if c != axis_name]
+    if not isinstance(at, dict) or set(at) != set(others):
+        got = sorted(at) if isinstance(at, dict) else at
+        raise fail(f'{where}: at: expected exactly {", ".join(others)} (each a number or "any"), got {got!r}')
+    base: list[float | None] = [None] * 4
+    for c in others:
+        v = at[c]
+        if v == "any":
+            continue
+        f = number(v)
+        if f is None:
+            raise fail(f'{where}: at.{c}: expected a finite number or "any", got {v!r}')
+        k = AXES.index(c)
+        base[k] = f - math.floor(f) if PERIODIC[k] else f
+    keys = a.get("keys")
+    if not isinstance(keys, list) or not keys:
+        raise fail(f"{where}: keys: expected a list of {{ at = …, pose = … }} tables")
+    coords: list[float] = []
+    slots: list[int | str] = []
+    for k, key in enumerate(keys):
+        kw = f"{where} key {k}"
+        if not isinstance(key, dict) or "at" not in key or len(set(key) & {"pose", "family"}) != 1:
+            raise fail(
+                f'{kw}: expected {{ at = number, pose = "name" }} or {{ at = number, family = "name" }}'
+            )
+        if set(key) - {"at", "pose", "family"}:
+            raise fail(f"{kw}: {sorted(set(key) - {'at', 'pose', 'family'})[0]}: unknown key")
+        x = number(key["at"])
+        if x is None:
+            raise fail(f"{kw}: at: expected a finite number, got {key['at']!r}")
+        if PERIODIC[axis] and not 0.0 <= x < 1.0:
+            raise fail(f"{kw}: at: {axis_name} is periodic; expected 0 <= at < 1, got {x}")
+        kw = f"{kw} at {axis_name}={x:g}"
+        if x in coords:
+            raise fail(f"{kw}: duplicate coordinate (key {coords.index(x)} is there too)")
+        if "pose" in key:
+            pose = key["pose"]
+            if not isinstance(pose, str) or pose not in raw:
+                raise fail(f"{kw}: pose: no pose named {pose!r} in the pose files")
+            slots.append(use_pose(pose, f" ({kw})"))
+        else:
+            ref = key["family"]
+            if not isinstance(ref, str):
+                raise fail(f"{kw}: family: expected a family name")
+            slots.append(ref)
+        coords.append(x)
+    order = np.argsort(coords, kind="stable")
+    return Curve(
+        name=name,
+        behaviour=behaviour,
+        family=family,
+        axis=axis,
+        base=tuple(base),
+        coords=np.array(coords, dtype=float)[order],
+        keys=tuple(slots[j] for j in order),
+    )
+
+
+def _families(curves: list[Curve], fail: Any) -> dict[str, Family]:
+    groups: dict[str, list[Curve]] = {}
+    for c in curves:
+        groups.setdefault(c.family, []).append(c)
+    out: dict[str, Family] = {}
+    for name, members in groups.items():
+        first = members[0]
+        for m in members[1:]:
+            if m.behaviour != first.behaviour or m.axis != first.axis:
+                raise fail(
+                    f"animation '{m.name}': family '{name}': its members must share behaviour and axis "
+                    f"(as '{first.name}': {first.behaviour}, {AXES[first.axis]})"
+                )
+        loft: int | None = None
+        if len(members) > 1:
+            differ = {c for m in members for c in range(4) if m.base[c] != first.base[c]}
+            if len(differ) != 1 or any(m.base[next(iter(differ))] is None for m in members):
+                raise fail(
+                    f"family '{name}': its animations must differ in exactly one coordinate, a number in all"
+                )
+            loft = next(iter(differ))
+            values = [m.base[loft] for m in members]
+            if len(set(values)) != len(values):
+                raise fail(f"family '{name}': two animations at the same {AXES[loft]}")
+            members = sorted(members, key=lambda m: m.base[loft])  # type: ignore[arg-type, return-value]
+        refs = frozenset(k for m in members for k in m.keys if isinstance(k, str))
+        out[name] = Family(name, first.behaviour, tuple(members), loft, refs)
+    for fam in out.values():
+        for ref in sorted(fam.refs):
+            if ref not in out:
+                raise fail(
+                    f"family '{fam.name}': a key refers to family '{ref}', which the set does not have"
+                )
+            if out[ref].refs:
+                raise fail(f"family '{fam.name}': refers to family '{ref}', which itself refers to others")
+    return out
