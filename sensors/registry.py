@@ -12,6 +12,7 @@ from typing import Any
 
 from sensors.base import Sensor
 from sensors.clock import Clock
+from sensors.pads.config import PadsConfig
 from sensors.replay import ReplayConfig
 from sensors.webcam.config import WebcamConfig
 
@@ -31,6 +32,14 @@ def _load_webcam(config: Any, name: str, clock: Clock) -> Sensor:
     return WebcamSensor(config, clock, name)
 
 
+def _load_pads(config: Any, name: str, clock: Clock) -> Sensor:
+    if not isinstance(config, PadsConfig):
+        raise TypeError(f"pads sensor {name!r}: expected a PadsConfig, got {type(config).__name__}")
+    from sensors.pads.driver import PadsSensor
+
+    return PadsSensor(config, clock, name)
+
+
 def _load_replay(config: Any, name: str, clock: Clock) -> Sensor:
     if not isinstance(config, ReplayConfig):
         raise TypeError(f"replay sensor {name!r}: expected a ReplayConfig, got {type(config).__name__}")
@@ -41,5 +50,6 @@ def _load_replay(config: Any, name: str, clock: Clock) -> Sensor:
 
 SENSOR_TYPES: dict[str, SensorType] = {
     "webcam": SensorType(WebcamConfig, _load_webcam, "a camera, video file or stream URL through OpenCV"),
+    "pads": SensorType(PadsConfig, _load_pads, "force pads on a serial port (binary COBS+CRC frames or CSV lines)"),
     "replay": SensorType(ReplayConfig, _load_replay, "one sensor channel of an MCAP recording, on the loop's clock"),
 }
