@@ -55,6 +55,11 @@ class WorldConfig:
     contact_episode_gap_s: float = 0.1  # a contact episode ends after this long without contact
     contactor_hold_s: float = 0.25  # contactors of the last observation stay (extrapolated) this long
     contactor_friction: float = 0.5
+    # People are not infinitely stiff: contacts with contactors are springs (N/m) with damping (N·s/m),
+    # so a contactor that appears inside a body, or pins one to the floor, pushes with a bounded force.
+    # 0 stiffness = rigid contacts (unbounded forces when a contactor is teleported into a body).
+    contactor_stiffness: float = 0.0
+    contactor_damping: float = 0.0
     max_contactor_speed: float = 15.0  # m/s; faster contactor velocities are clamped (and counted)
     max_contactor_radius: float = 1.0  # m; radii/half-depths are clamped to this
     max_impulse_force_n: float = 3000.0  # pad forces are clamped to this magnitude
@@ -68,7 +73,7 @@ class WorldConfig:
                         "max_contactor_speed", "max_contactor_radius", "max_impulse_force_n",
                         "max_impulse_duration_s", "stuck_timeout_s")
         _check_non_negative(self, "floor_friction", "contactor_hold_s", "contactor_friction",
-                            "stage_escape_margin")
+                            "stage_escape_margin", "contactor_stiffness", "contactor_damping")
         if isinstance(self.max_catchup_ticks, bool) or not isinstance(self.max_catchup_ticks, int) \
                 or self.max_catchup_ticks < 1:
             raise ValueError(f"max_catchup_ticks: expected an integer >= 1, got {self.max_catchup_ticks!r}")

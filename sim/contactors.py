@@ -42,9 +42,11 @@ ShapeKey = tuple[int, int]
 class ContactorPool:
     """Kinematic bodies standing for the people's contactors in one pybullet client."""
 
-    def __init__(self, client: int, friction: float) -> None:
+    def __init__(self, client: int, friction: float, stiffness: float = 0.0, damping: float = 0.0) -> None:
         self._client = client
         self._friction = friction
+        self._stiffness = stiffness
+        self._damping = damping
         self._shapes: dict[ShapeKey, int] = {}
         self._bodies: dict[ShapeKey, list[int]] = {}
         self._parked: set[int] = set()
@@ -70,6 +72,9 @@ class ContactorPool:
         p.setCollisionFilterGroupMask(body, -1, GROUP_CONTACTOR, MASK_CONTACTOR, physicsClientId=self._client)
         p.changeDynamics(body, -1, lateralFriction=self._friction, restitution=0.0,
                          physicsClientId=self._client)
+        if self._stiffness > 0:
+            p.changeDynamics(body, -1, contactStiffness=self._stiffness, contactDamping=self._damping,
+                             physicsClientId=self._client)
         self._bodies.setdefault(key, []).append(body)
         return body
 

@@ -72,7 +72,8 @@ class World:
         p.changeDynamics(self._floor, -1, lateralFriction=1.0, restitution=0.0, physicsClientId=c)
         p.setCollisionFilterGroupMask(self._floor, -1, GROUP_FLOOR, MASK_FLOOR, physicsClientId=c)
         self._stage = Stage(config.x_min, config.x_max, config.y_min, config.y_max)
-        self._pool = ContactorPool(c, config.contactor_friction)
+        self._pool = ContactorPool(c, config.contactor_friction, config.contactor_stiffness,
+                                   config.contactor_damping)
         self._episodes = ContactEpisodes(config.contact_episode_gap_s)
         self._characters: dict[str, Character] = {}
         self._by_body: dict[int, str] = {}

@@ -1,0 +1,239 @@
+"""The main loop: sensors → observers → world → renderer → video, on one injected clock.
+
+Replays and headless runs use simulated time (a ``SimClock`` that the loop moves one render frame at
+a time), so a recording plus a seed always gives the same trace, as fast as the CPU allows. Live runs
+use the wall clock and pace the loop to the render rate.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Literal, Protocol
+
+import numpy as np
+
+from interaction.types import BodyObservation
+from jostle.config import JostleConfig
+from jostle.progress import Progress
+from jostle.summary import RunSummary, SnapshotTally
+from sensors.base import Frame, Sensor, SensorState
+from sensors.clock import Clock, SimClock, WallClock
+from sensors.registry import SENSOR_TYPES
+from sim.snapshot import WorldSnapshot
+from sim.world import World
+
+if TYPE_CHECKING:
+    from render.draw import Renderer
+    from render.keyframes import KeyframeSet
+    from render.video import VideoOut
+
+log = logging.getLogger("jostle")
+
+Mode = Literal["headless", "window", "kiosk"]
+Speed = Literal["realtime", "max"]
+
+
+class Observer(Protocol):
+    def observe(self, frame: Frame) -> BodyObservation: ...
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    mode: Mode = "headless"
+    out_dir: Path | None = None
+    seed: int | None = None
+    speed: Speed = "max"
+    duration_s: float | None = None  # overrides the config's [run] duration_s
+    video: bool = True
+    progress: bool = True
+
+
+def build_observer(kind: str, config: object, calibration_path: Path) -> Observer:
+    from interaction.calibration import Calibration
+
+    if kind == "webcam":
+        from interaction.webcam import WebcamObserver, WebcamObserverConfig
+
+        assert isinstance(config, WebcamObserverConfig)
+        return WebcamObserver(config, Calibration.load(calibration_path))
+    raise ValueError(f"unknown observer type {kind!r}")
+
+
+def place_characters(config: JostleConfig, world: World, seed: int) -> int:
+    """Spread the configured characters over the stage, deterministically from the seed."""
+    rng = np.random.default_rng([seed, 7])
+    w = config.world
+    total = sum(g.count for g in config.characters)
+    n = 0
+    for group in config.characters:
+        for _ in range(group.count):
+            frac = (n + 0.5) / max(total, 1)
+            x = w.x_min + 0.5 + frac * (w.x_max - w.x_min - 1.0) + rng.uniform(-0.2, 0.2)
+            y = rng.uniform(w.y_min * 0.5, w.y_max * 0.5)
+            heading = float(rng.uniform(-np.pi, np.pi))
+            world.add_character(group.spec, (float(x), float(y)), heading, intent=group.intent)
+            n += 1
+    return n
+
+
+def expected_duration(config: JostleConfig, options: RunOptions) -> float | None:
+    """Seconds of simulated time the run will cover, when it can be known in advance."""
+    if options.duration_s:
+        return options.duration_s
+    if config.run.duration_s:
+        return config.run.duration_s
+    from sensors.recording_info import describe_recording
+    from sensors.replay import ReplayConfig
+
+    longest = 0.0
+    for entry in config.sensors:
+        if not isinstance(entry.config, ReplayConfig):
+            return None  # a live sensor: runs until stopped
+        longest = max(longest, describe_recording(entry.config.path).duration)
+    return longest + config.run.tail_s
+
+
+class App:
+    """Owns every part of one run; ``run()`` drives them and returns what happened."""
+
+    def __init__(self, config: JostleConfig, options: RunOptions, *, clock: Clock | None = None) -> None:
+        self.config = config
+        self.options = options
+        self.seed = config.run.seed if options.seed is None else options.seed
+        live = any(not _is_replay(e.config) for e in config.sensors)
+        if clock is None:
+            clock = WallClock() if (live or options.speed == "realtime") else SimClock()
+        self.clock = clock
+        self.summary = RunSummary(seed=self.seed)
+        self.tally = SnapshotTally(self.summary)
+        self.on_frame: Callable[[WorldSnapshot, BodyObservation, np.ndarray | None], None] | None = None
+
+    def run(self) -> RunSummary:
+        from render.draw import Renderer
+        from render.keyframes import KeyframeSet
+        from render.video import VideoOut
+
+        cfg = self.config
+        opts = self.options
+        wall0 = time.perf_counter()
+        sensors: dict[str, Sensor] = {}
+        observers: dict[str, tuple[str, Observer]] = {}  # observer name -> (sensor name, observer)
+        for entry in cfg.sensors:
+            sensors[entry.name] = SENSOR_TYPES[entry.type].loader(entry.config, entry.name, self.clock)
+        for ob in cfg.observers:
+            observers[ob.name] = (ob.sensor, build_observer(ob.type, ob.config, ob.calibration))
+        recordings = [str(e.config.path) for e in cfg.sensors if _is_replay(e.config)]
+        self.summary.recording = ", ".join(recordings) if recordings else None
+
+        keyframes = KeyframeSet.load(cfg.render.keyframes)
+        world = World(cfg.world, np.random.default_rng(self.seed))
+        renderer = None
+        video = None
+        out_dir = opts.out_dir
+        try:
+            self.summary.characters = place_characters(cfg, world, self.seed)
+            renderer = Renderer(cfg.render.width, cfg.render.height, headless=(opts.mode == "headless"))
+            if out_dir is not None:
+                out_dir.mkdir(parents=True, exist_ok=True)
+                if opts.video:
+                    video_path = out_dir / f"{cfg.path.stem}.mp4"
+                    video = VideoOut(video_path, cfg.render.fps, (cfg.render.width, cfg.render.height))
+                    self.summary.video = str(video_path)
+            for s in sensors.values():
+                s.open()
+            self._loop(sensors, observers, world, renderer, keyframes, video)
+        finally:
+            for s in sensors.values():
+                s.close()
+            if video is not None:
+                video.close()
+            if renderer is not None:
+                renderer.close()
+            world.close()
+            self.summary.wall_seconds = round(time.perf_counter() - wall0, 3)
+            self.summary.trace_sha256 = self.tally.digest
+            if out_dir is not None:
+                self.summary.write(out_dir / "summary.json")
+        return self.summary
+
+    def _loop(
+        self,
+        sensors: dict[str, Sensor],
+        observers: dict[str, tuple[str, Observer]],
+        world: World,
+        renderer: Renderer,
+        keyframes: KeyframeSet,
+        video: VideoOut | None,
+    ) -> None:
+        cfg = self.config
+        opts = self.options
+        dt = 1.0 / cfg.render.fps
+        duration = opts.duration_s or cfg.run.duration_s or 0.0
+        total = expected_duration(cfg, opts)
+        latest: dict[str, BodyObservation] = {}
+        silhouettes: dict[str, np.ndarray] = {}
+        ended_at: float | None = None
+        bar = Progress(total, "jostle run", "sim s", enabled=opts.progress)
+        t = self.clock.now()
+        t0 = t
+        try:
+            while True:
+                t += dt
+                self.clock.sleep_until(t)
+                now = self.clock.now()
+                for sensor_name, sensor in sensors.items():
+                    while (frame := sensor.read(0.0)) is not None:
+                        self.summary.sensor_frames += 1
+                        for ob_name, (src, observer) in observers.items():
+                            if src != sensor_name:
+                                continue
+                            obs = observer.observe(frame)
+                            latest[ob_name] = obs
+                            sil = getattr(observer, "silhouette", None)
+                            if isinstance(sil, np.ndarray):
+                                silhouettes[ob_name] = sil
+                            if obs.people:
+                                self.summary.observed_frames_with_people += 1
+                observation = BodyObservation.merge(now, list(latest.values()))
+                snap = world.step(observation, dt)
+                for ob_name, obs in latest.items():  # an impulse acts once; contactors stay until replaced
+                    if obs.impulses:
+                        latest[ob_name] = dataclasses.replace(obs, impulses=())
+                self.tally.add(snap)
+                silhouette = next(iter(silhouettes.values()), None) if cfg.render.show_silhouette else None
+                image = renderer.draw(snap, observation if cfg.render.show_contactors else None, keyframes,
+                                      silhouette=silhouette)
+                self.summary.frames_rendered += 1
+                if video is not None:
+                    video.write(image)
+                if self.on_frame is not None:
+                    self.on_frame(snap, observation, image)
+                bar.update(dt)
+                elapsed = now - t0
+                if duration and elapsed >= duration - 1e-9:
+                    self.summary.stopped_because = f"duration {duration:g} s reached"
+                    break
+                if not duration and all(s.status.state is SensorState.ENDED for s in sensors.values()):
+                    ended_at = now if ended_at is None else ended_at
+                    if now - ended_at >= cfg.run.tail_s - 1e-9:
+                        self.summary.stopped_because = "all recordings ended"
+                        break
+                failed = [n for n, s in sensors.items() if s.status.state is SensorState.FAILED]
+                if failed:
+                    name = failed[0]
+                    raise RuntimeError(f"sensor {name!r} failed: {sensors[name].status.reason}")
+        except KeyboardInterrupt:
+            self.summary.stopped_because = "interrupted"
+        finally:
+            bar.close()
+
+
+def _is_replay(config: object) -> bool:
+    from sensors.replay import ReplayConfig
+
+    return isinstance(config, ReplayConfig)

@@ -1,0 +1,225 @@
+"""The installation config: one TOML file → frozen dataclasses, checked before anything opens.
+
+Layout (all tables optional but ``sensors``)::
+
+    [run]                 seed, duration_s, tail_s
+    [sensors.<name>]      type = "webcam" | "replay" | ...  + that driver's keys
+    [observers.<name>]    type = "webcam", sensor = "<sensor name>", calibration = "file.toml" + observer keys
+    [world]               sim.WorldConfig keys
+    [[characters]]        spec = "characters/x.toml", count, intent
+    [render]              width, height, fps, keyframes, ...
+
+Paths are relative to the config file. Every error names the file, the key and what was expected.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from jostle.configtree import ConfigError, build
+from sensors.registry import SENSOR_TYPES
+from sim.config import CharacterSpec, WorldConfig
+
+__all__ = ["ConfigError", "JostleConfig", "load_config", "load_toml", "OBSERVER_TYPES"]
+
+
+@dataclass(frozen=True)
+class ObserverType:
+    config: type
+    description: str
+
+
+def _observer_types() -> dict[str, ObserverType]:
+    from interaction.webcam import WebcamObserverConfig
+
+    return {"webcam": ObserverType(WebcamObserverConfig, "silhouette, optical flow and contactors from colour frames")}
+
+
+OBSERVER_TYPES: Callable[[], dict[str, ObserverType]] = _observer_types
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    seed: int = 0
+    duration_s: float = 0.0  # 0: run until every sensor has ended (replays), then tail_s more
+    tail_s: float = 2.0
+
+    def __post_init__(self) -> None:
+        if self.duration_s < 0:
+            raise ValueError(f"duration_s: expected a number ≥ 0, got {self.duration_s}")
+        if self.tail_s < 0:
+            raise ValueError(f"tail_s: expected a number ≥ 0, got {self.tail_s}")
+
+
+@dataclass(frozen=True)
+class RenderConfig:
+    keyframes: Path
+    width: int = 1280
+    height: int = 720
+    fps: float = 30.0
+    show_silhouette: bool = True
+    show_contactors: bool = True
+
+    def __post_init__(self) -> None:
+        if not (16 <= self.width <= 7680 and 16 <= self.height <= 4320):
+            raise ValueError(f"width: expected a size from 16×16 to 7680×4320, got {self.width}×{self.height}")
+        if not 1 <= self.fps <= 240:
+            raise ValueError(f"fps: expected 1 to 240, got {self.fps}")
+        if not self.keyframes.exists():
+            raise ValueError(f"keyframes: no such file {self.keyframes}")
+
+
+@dataclass(frozen=True)
+class SensorEntry:
+    name: str
+    type: str
+    config: Any
+
+
+@dataclass(frozen=True)
+class ObserverEntry:
+    name: str
+    type: str
+    sensor: str
+    calibration: Path
+    config: Any
+
+
+@dataclass(frozen=True)
+class CharacterGroup:
+    spec: CharacterSpec
+    count: int
+    intent: str
+    source: Path
+
+
+@dataclass(frozen=True)
+class JostleConfig:
+    path: Path
+    run: RunConfig
+    sensors: tuple[SensorEntry, ...]
+    observers: tuple[ObserverEntry, ...]
+    world: WorldConfig
+    characters: tuple[CharacterGroup, ...]
+    render: RenderConfig
+    raw: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+
+INTENTS = ("idle", "wander", "approach", "flee")
+TOP_KEYS = ("run", "sensors", "observers", "world", "characters", "render")
+
+
+def load_toml(path: Path) -> dict[str, Any]:
+    """Read a TOML file, turning every failure into a one-line ConfigError naming the file."""
+    try:
+        with path.open("rb") as f:
+            return tomllib.load(f)
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such config file") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a folder, expected a TOML file") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path}: not valid TOML ({e})") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a text file") from None
+
+
+def _table(doc: Mapping[str, Any], key: str, source: str) -> Mapping[str, Any]:
+    value = doc.get(key, {})
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{source}: {key}: expected a table, got {type(value).__name__}")
+    return value
+
+
+def _typed_entry(
+    name: str, table: Mapping[str, Any], section: str, known: Mapping[str, Any], source: str
+) -> tuple[str, dict[str, Any]]:
+    if not isinstance(table, Mapping):
+        raise ConfigError(f"{source}: {section}.{name}: expected a table")
+    kind = table.get("type")
+    if not isinstance(kind, str):
+        raise ConfigError(
+            f"{source}: {section}.{name}.type: missing; expected one of: {', '.join(sorted(known))}"
+        )
+    if kind not in known:
+        raise ConfigError(
+            f"{source}: {section}.{name}.type: unknown type {kind!r}; known: {', '.join(sorted(known))}"
+        )
+    rest = {k: v for k, v in table.items() if k != "type"}
+    return kind, rest
+
+
+def load_config(path: str | Path) -> JostleConfig:
+    """Load and check a whole installation config. Raises ConfigError (one line) on anything wrong."""
+    path = Path(path)
+    doc = load_toml(path)
+    source = str(path)
+    base = path.parent.resolve()
+    for k in doc:
+        if k not in TOP_KEYS:
+            raise ConfigError(f"{source}: {k}: unknown key; expected one of: {', '.join(TOP_KEYS)}")
+
+    run = build(RunConfig, _table(doc, "run", source), source=source, key="run", base_dir=base)
+
+    sensors: list[SensorEntry] = []
+    sensor_tables = _table(doc, "sensors", source)
+    if not sensor_tables:
+        raise ConfigError(f"{source}: sensors: missing; at least one [sensors.<name>] table is needed")
+    for name, table in sensor_tables.items():
+        kind, rest = _typed_entry(name, table, "sensors", SENSOR_TYPES, source)
+        sensor_cfg: Any = build(SENSOR_TYPES[kind].config, rest, source=source, key=f"sensors.{name}", base_dir=base)
+        sensors.append(SensorEntry(name, kind, sensor_cfg))
+
+    observers: list[ObserverEntry] = []
+    known_observers = OBSERVER_TYPES()
+    for name, table in _table(doc, "observers", source).items():
+        kind, rest = _typed_entry(name, table, "observers", known_observers, source)
+        sensor = rest.pop("sensor", None)
+        if sensor not in sensor_tables:
+            raise ConfigError(
+                f"{source}: observers.{name}.sensor: expected the name of a [sensors.*] table "
+                f"({', '.join(sensor_tables)}), got {sensor!r}"
+            )
+        calib_value = rest.pop("calibration", None)
+        if not isinstance(calib_value, str):
+            raise ConfigError(f"{source}: observers.{name}.calibration: missing; expected a path to a calibration TOML")
+        calibration = (base / calib_value) if not Path(calib_value).is_absolute() else Path(calib_value)
+        if not calibration.exists():
+            raise ConfigError(f"{source}: observers.{name}.calibration: no such file {calibration}")
+        cfg: Any = build(known_observers[kind].config, rest, source=source, key=f"observers.{name}", base_dir=base)
+        observers.append(ObserverEntry(name, kind, str(sensor), calibration, cfg))
+
+    world = build(WorldConfig, _table(doc, "world", source), source=source, key="world", base_dir=base)
+
+    groups: list[CharacterGroup] = []
+    char_list = doc.get("characters", [])
+    if not isinstance(char_list, list):
+        raise ConfigError(f"{source}: characters: expected [[characters]] tables")
+    for i, entry in enumerate(char_list):
+        key = f"characters[{i}]"
+        if not isinstance(entry, Mapping):
+            raise ConfigError(f"{source}: {key}: expected a table")
+        group = build(_GroupTable, entry, source=source, key=key, base_dir=base)
+        spec_doc = load_toml(group.spec)
+        spec = build(CharacterSpec, spec_doc, source=str(group.spec), key="", base_dir=group.spec.parent)
+        groups.append(CharacterGroup(spec, group.count, group.intent, group.spec))
+
+    render = build(RenderConfig, _table(doc, "render", source), source=source, key="render", base_dir=base)
+    return JostleConfig(path, run, tuple(sensors), tuple(observers), world, tuple(groups), render, doc)
+
+
+@dataclass(frozen=True)
+class _GroupTable:
+    spec: Path
+    count: int = 1
+    intent: Literal["idle", "wander", "approach", "flee"] = "wander"
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.count <= 1000:
+            raise ValueError(f"count: expected 0 to 1000, got {self.count}")
+        if not self.spec.exists():
+            raise ValueError(f"spec: no such character file {self.spec}")
