@@ -17,10 +17,12 @@ def add_all(sub: Sub) -> None:
     _add_record(sub)
     _add_replay(sub)
     _add_info(sub)
-    from jostle import synth_cli, tools_cli
+    from jostle import bench_cli, keyframes_cli, synth_cli, tools_cli
 
     synth_cli.add(sub)
+    keyframes_cli.add(sub)
     tools_cli.add(sub)
+    bench_cli.add(sub)
 
 
 # ------------------------------------------------------------------------------------------ run

@@ -1,0 +1,91 @@
+"""``jostle bench …``: every benchmark an issue names, as a command that prints its figures.
+
+Each benchmark lives in the package it measures, as a module with two functions::
+
+    def add_arguments(parser: argparse.ArgumentParser) -> None   # its own flags (--characters, …)
+    def run(args: argparse.Namespace) -> dict[str, object]        # measures, returns the figures
+
+Timings are ratios measured in one run against a baseline in the same process. ``--json`` prints
+the figures for machines; without it they are printed one per line for people.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+from typing import Any
+
+RAW = argparse.RawDescriptionHelpFormatter
+
+# name → (module, one-line description). A module that does not exist yet is listed as unavailable.
+BENCHES: dict[str, tuple[str, str]] = {
+    "pipeline": ("jostle.bench_pipeline", "the demo's cost per stage: decode, observe, simulate, draw"),
+    "sim": ("sim.bench", "N characters with controller and AI against N bare bodies, same run"),
+    "identify": ("sim.bench_identify", "the paper's observer experiment (§6.2) done by machine"),
+    "render": ("render.bench", "headless frame rate and pose evaluation cost for N characters"),
+    "sensors": ("sensors.bench", "pad parser fuzz and rate, recording replay speed"),
+    "interaction": ("interaction.bench", "observers against virtual-performer ground truth"),
+    "soak": ("jostle.soak", "the demo looped headless for minutes: memory and frame-rate drift"),
+}
+
+
+def _module(name: str) -> Any | None:
+    try:
+        return importlib.import_module(BENCHES[name][0])
+    except ModuleNotFoundError as e:
+        if e.name == BENCHES[name][0]:
+            return None
+        raise
+
+
+def add(sub: Any) -> None:
+    p = sub.add_parser(
+        "bench",
+        help="run a benchmark and print its figures (--json for machines)",
+        formatter_class=RAW,
+        description="Benchmarks of jostle. Each prints its figures; add --json for a machine-readable\n"
+        "object. Timings are ratios against a baseline measured in the same run.",
+        epilog="examples:\n  jostle bench pipeline --json\n  jostle bench sensors --fuzz-bytes 1000000 --json",
+    )
+    benches = p.add_subparsers(dest="bench", metavar="BENCH", required=True)
+    for name, (_, description) in BENCHES.items():
+        module = _module(name)
+        b = benches.add_parser(name, help=description + ("" if module else " (not built yet)"),
+                               description=description, formatter_class=RAW)
+        b.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+        if module is not None:
+            module.add_arguments(b)
+        b.set_defaults(func=_runner(name))
+
+
+def _runner(name: str) -> Any:
+    def run(args: argparse.Namespace) -> int:
+        module = _module(name)
+        if module is None:
+            from jostle.cli import UsageError
+
+            raise UsageError(f"bench {name}: not built yet ({BENCHES[name][0]} is missing)")
+        figures: dict[str, Any] = module.run(args)
+        if args.json:
+            print(json.dumps(figures, indent=2, default=str))
+        else:
+            width = max(len(k) for k in figures) if figures else 0
+            for k, v in figures.items():
+                shown = f"{v:.4g}" if isinstance(v, float) else v
+                print(f"{k:<{width}}  {shown}")
+        return 0
+
+    return run
+
+
+def main_json(name: str, argv: list[str]) -> dict[str, Any]:
+    """Run a benchmark in-process and return its figures (for tests)."""
+    parser = argparse.ArgumentParser()
+    module = _module(name)
+    if module is None:
+        raise RuntimeError(f"bench {name} is not built")
+    module.add_arguments(parser)
+    result: dict[str, Any] = module.run(parser.parse_args(argv))
+    return result
+
