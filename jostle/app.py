@@ -111,6 +111,8 @@ class App:
         self.clock = clock
         self.summary = RunSummary(seed=self.seed)
         self.tally = SnapshotTally(self.summary)
+        # wall seconds spent in each stage of the loop (for `jostle bench pipeline`)
+        self.stage_seconds: dict[str, float] = dict.fromkeys(("sensors", "observe", "simulate", "draw", "encode"), 0.0)
         self.on_frame: Callable[[WorldSnapshot, BodyObservation, np.ndarray | None], None] | None = None
 
     def run(self) -> RunSummary:
@@ -179,6 +181,7 @@ class App:
         silhouettes: dict[str, np.ndarray] = {}
         ended_at: float | None = None
         bar = Progress(total, "jostle run", "sim s", enabled=opts.progress)
+        spent = self.stage_seconds
         t = self.clock.now()
         t0 = t
         try:
@@ -186,31 +189,44 @@ class App:
                 t += dt
                 self.clock.sleep_until(t)
                 now = self.clock.now()
+                clock = time.perf_counter
                 for sensor_name, sensor in sensors.items():
+                    mark = clock()
                     while (frame := sensor.read(0.0)) is not None:
                         self.summary.sensor_frames += 1
+                        spent["sensors"] += clock() - mark
                         for ob_name, (src, observer) in observers.items():
                             if src != sensor_name:
                                 continue
+                            mark = clock()
                             obs = observer.observe(frame)
+                            spent["observe"] += clock() - mark
                             latest[ob_name] = obs
                             sil = getattr(observer, "silhouette", None)
                             if isinstance(sil, np.ndarray):
                                 silhouettes[ob_name] = sil
                             if obs.people:
                                 self.summary.observed_frames_with_people += 1
+                        mark = clock()
+                    spent["sensors"] += clock() - mark
                 observation = BodyObservation.merge(now, list(latest.values()))
+                mark = clock()
                 snap = world.step(observation, dt)
+                spent["simulate"] += clock() - mark
                 for ob_name, obs in latest.items():  # an impulse acts once; contactors stay until replaced
                     if obs.impulses:
                         latest[ob_name] = dataclasses.replace(obs, impulses=())
                 self.tally.add(snap)
                 silhouette = next(iter(silhouettes.values()), None) if cfg.render.show_silhouette else None
+                mark = clock()
                 image = renderer.draw(snap, observation if cfg.render.show_contactors else None, keyframes,
                                       silhouette=silhouette)
+                spent["draw"] += clock() - mark
                 self.summary.frames_rendered += 1
                 if video is not None:
+                    mark = clock()
                     video.write(image)
+                    spent["encode"] += clock() - mark
                 if self.on_frame is not None:
                     self.on_frame(snap, observation, image)
                 bar.update(dt)

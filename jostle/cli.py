@@ -59,6 +59,10 @@ def main(argv: list[str] | None = None) -> int:
         format="jostle: %(levelname)s: %(message)s" if not args.debug else "%(asctime)s %(name)s %(levelname)s %(message)s",
     )
     from jostle.errors import user_facing
+    from jostle.quiet import import_pybullet_quietly
+
+    if args.command in ("run", "replay", "bench", "synth", "keyframes"):
+        import_pybullet_quietly()
 
     previous_showwarning = warnings.showwarning
     warnings.showwarning = _one_line_warning
