@@ -27,7 +27,9 @@ w.close()
 _DAI_PROBE = """
 import depthai as dai
 devs = dai.Device.getAllAvailableDevices()
-print(len(devs)); [print(d.getDeviceId(), d.state) for d in devs]
+print("JOSTLE-DEVICES", len(devs))
+for d in devs:
+    print("JOSTLE-DEVICE", d.getDeviceId(), d.state)
 """
 
 _CAM_PROBE = """
@@ -91,8 +93,11 @@ def run_checks(timeout: float = 15.0) -> list[Check]:
 
     ok, out = _probe(_DAI_PROBE, timeout=timeout)
     if ok:
-        n = int(out.splitlines()[0]) if out else 0
-        checks.append(Check("DepthAI devices", "ok" if n else "warn", out.replace("\n", "; ") if n else "none found",
+        lines = out.splitlines()
+        counts = [ln.split()[1] for ln in lines if ln.startswith("JOSTLE-DEVICES ")]
+        n = int(counts[0]) if counts and counts[0].isdigit() else 0
+        found = "; ".join(ln.removeprefix("JOSTLE-DEVICE ") for ln in lines if ln.startswith("JOSTLE-DEVICE "))
+        checks.append(Check("DepthAI devices", "ok" if n else "warn", found if n else "none found",
                             "" if n else "plug in an OAK camera (USB3 cable, or PoE on the same network)"))
     else:
         checks.append(Check("DepthAI devices", "warn", out, "is depthai installed? (make setup)"))

@@ -52,8 +52,9 @@ def record_config(config_path: Path, out: Path, *, duration: float | None, force
                 last_report = now
                 size = out.stat().st_size / 1e6 if out.exists() else 0.0
                 rate = frames / max(now, 1e-9)
-                print(f"\rjostle: {now:6.1f} s  {frames} frames  {size:.1f} MB  {rate:.1f} frames/s",
-                      end="", file=sys.stderr)
+                tty = sys.stderr.isatty()
+                line = f"jostle: {now:6.1f} s  {frames} frames  {size:.1f} MB  {rate:.1f} frames/s"
+                print(("\r" + line) if tty else line, end="" if tty else "\n", file=sys.stderr)
             if duration and now >= duration:
                 break
             if all(s.status.state is SensorState.ENDED for s in sensors):
@@ -67,6 +68,8 @@ def record_config(config_path: Path, out: Path, *, duration: float | None, force
         for s in sensors:
             s.close()
         writer.close()
-    print(f"\njostle: wrote {out} ({frames} frames, {out.stat().st_size / 1e6:.1f} MB, "
+    if sys.stderr.isatty():
+        print(file=sys.stderr)
+    print(f"jostle: wrote {out} ({frames} frames, {out.stat().st_size / 1e6:.1f} MB, "
           f"{time.perf_counter() - started:.1f} s)", file=sys.stderr)
     return 0
