@@ -13,15 +13,16 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal, Protocol
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from interaction.types import BodyObservation
 from jostle.config import JostleConfig
+from jostle.observers import Observer, observer_types
 from jostle.progress import Progress
 from jostle.summary import RunSummary, SnapshotTally
-from sensors.base import Frame, Sensor, SensorState
+from sensors.base import Sensor, SensorState
 from sensors.clock import Clock, SimClock, WallClock
 from sensors.registry import SENSOR_TYPES
 from sim.snapshot import WorldSnapshot
@@ -38,10 +39,6 @@ Mode = Literal["headless", "window", "kiosk"]
 Speed = Literal["realtime", "max"]
 
 
-class Observer(Protocol):
-    def observe(self, frame: Frame) -> BodyObservation: ...
-
-
 @dataclass(frozen=True)
 class RunOptions:
     mode: Mode = "headless"
@@ -51,17 +48,6 @@ class RunOptions:
     duration_s: float | None = None  # overrides the config's [run] duration_s
     video: bool = True
     progress: bool = True
-
-
-def build_observer(kind: str, config: object, calibration_path: Path) -> Observer:
-    from interaction.calibration import Calibration
-
-    if kind == "webcam":
-        from interaction.webcam import WebcamObserver, WebcamObserverConfig
-
-        assert isinstance(config, WebcamObserverConfig)
-        return WebcamObserver(config, Calibration.load(calibration_path))
-    raise ValueError(f"unknown observer type {kind!r}")
 
 
 def place_characters(config: JostleConfig, world: World, seed: int) -> int:
@@ -128,7 +114,7 @@ class App:
         for entry in cfg.sensors:
             sensors[entry.name] = SENSOR_TYPES[entry.type].loader(entry.config, entry.name, self.clock)
         for ob in cfg.observers:
-            observers[ob.name] = (ob.sensor, build_observer(ob.type, ob.config, ob.calibration))
+            observers[ob.name] = (ob.sensor, observer_types()[ob.type].build(ob.config, ob.calibration))
         recordings = [str(e.config.path) for e in cfg.sensors if _is_replay(e.config)]
         self.summary.recording = ", ".join(recordings) if recordings else None
 

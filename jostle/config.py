@@ -15,31 +15,19 @@ Paths are relative to the config file. Every error names the file, the key and w
 from __future__ import annotations
 
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
 from jostle.configtree import ConfigError, build
+from jostle.observers import observer_types
 from sensors.registry import SENSOR_TYPES
 from sim.config import CharacterSpec, WorldConfig
 
-__all__ = ["ConfigError", "JostleConfig", "load_config", "load_toml", "OBSERVER_TYPES"]
+__all__ = ["ConfigError", "JostleConfig", "load_config", "load_toml"]
 
 
-@dataclass(frozen=True)
-class ObserverType:
-    config: type
-    description: str
-
-
-def _observer_types() -> dict[str, ObserverType]:
-    from interaction.webcam import WebcamObserverConfig
-
-    return {"webcam": ObserverType(WebcamObserverConfig, "silhouette, optical flow and contactors from colour frames")}
-
-
-OBSERVER_TYPES: Callable[[], dict[str, ObserverType]] = _observer_types
 
 
 @dataclass(frozen=True)
@@ -85,7 +73,7 @@ class ObserverEntry:
     name: str
     type: str
     sensor: str
-    calibration: Path
+    calibration: Path | None
     config: Any
 
 
@@ -175,7 +163,7 @@ def load_config(path: str | Path) -> JostleConfig:
         sensors.append(SensorEntry(name, kind, sensor_cfg))
 
     observers: list[ObserverEntry] = []
-    known_observers = OBSERVER_TYPES()
+    known_observers = observer_types()
     for name, table in _table(doc, "observers", source).items():
         kind, rest = _typed_entry(name, table, "observers", known_observers, source)
         sensor = rest.pop("sensor", None)
@@ -185,11 +173,15 @@ def load_config(path: str | Path) -> JostleConfig:
                 f"({', '.join(sensor_tables)}), got {sensor!r}"
             )
         calib_value = rest.pop("calibration", None)
-        if not isinstance(calib_value, str):
-            raise ConfigError(f"{source}: observers.{name}.calibration: missing; expected a path to a calibration TOML")
-        calibration = (base / calib_value) if not Path(calib_value).is_absolute() else Path(calib_value)
-        if not calibration.exists():
-            raise ConfigError(f"{source}: observers.{name}.calibration: no such file {calibration}")
+        calibration: Path | None = None
+        if known_observers[kind].needs_calibration or calib_value is not None:
+            if not isinstance(calib_value, str):
+                raise ConfigError(
+                    f"{source}: observers.{name}.calibration: missing; expected a path to a calibration TOML"
+                )
+            calibration = Path(calib_value) if Path(calib_value).is_absolute() else base / calib_value
+            if not calibration.exists():
+                raise ConfigError(f"{source}: observers.{name}.calibration: no such file {calibration}")
         cfg: Any = build(known_observers[kind].config, rest, source=source, key=f"observers.{name}", base_dir=base)
         observers.append(ObserverEntry(name, kind, str(sensor), calibration, cfg))
 

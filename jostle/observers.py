@@ -1,0 +1,47 @@
+"""The one table of observer types: ``type`` in an ``[observers.<name>]`` table → its config class and
+how to build it. Add an observer kind by adding a row here."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+from interaction.types import BodyObservation
+from sensors.base import Frame
+
+
+class Observer(Protocol):
+    def observe(self, frame: Frame) -> BodyObservation: ...
+
+
+@dataclass(frozen=True)
+class ObserverType:
+    config: type  # frozen config dataclass built from the table's other keys
+    build: Callable[[Any, Path | None], Observer]  # (config, calibration file or None) → observer
+    needs_calibration: bool
+    description: str
+
+
+def _webcam_config() -> type:
+    from interaction.webcam import WebcamObserverConfig
+
+    return WebcamObserverConfig
+
+
+def _build_webcam(config: Any, calibration: Path | None) -> Observer:
+    from interaction.calibration import Calibration
+    from interaction.webcam import WebcamObserver, WebcamObserverConfig
+
+    if not isinstance(config, WebcamObserverConfig) or calibration is None:
+        raise TypeError("webcam observer: expected a WebcamObserverConfig and a calibration file")
+    return WebcamObserver(config, Calibration.load(calibration))
+
+
+def observer_types() -> dict[str, ObserverType]:
+    """The table (built on call: the config classes live in modules that import OpenCV)."""
+    return {
+        "webcam": ObserverType(_webcam_config(), _build_webcam, True,
+                               "silhouette, optical flow and contactors from colour frames"),
+    }
