@@ -12,6 +12,8 @@ from typing import Any
 
 from sensors.base import Sensor
 from sensors.clock import Clock
+from sensors.faults import FaultyReplayConfig
+from sensors.oak.config import OakConfig
 from sensors.pads.config import PadsConfig
 from sensors.replay import ReplayConfig
 from sensors.webcam.config import WebcamConfig
@@ -48,8 +50,29 @@ def _load_replay(config: Any, name: str, clock: Clock) -> Sensor:
     return Replay(config.path, clock, channel=config.channel or None, name=name, loop=config.loop)
 
 
+def _load_oak(config: Any, name: str, clock: Clock) -> Sensor:
+    if not isinstance(config, OakConfig):
+        raise TypeError(f"oak sensor {name!r}: expected an OakConfig, got {type(config).__name__}")
+    from sensors.oak.driver import OakSensor
+
+    return OakSensor(config, clock, name)
+
+
+def _load_faulty_replay(config: Any, name: str, clock: Clock) -> Sensor:
+    if not isinstance(config, FaultyReplayConfig):
+        raise TypeError(f"faulty-replay sensor {name!r}: expected a FaultyReplayConfig, got {type(config).__name__}")
+    from sensors.faults import FaultySensor
+    from sensors.replay import Replay
+
+    replay = Replay(config.path, clock, channel=config.channel or None, name=name, loop=config.loop)
+    return FaultySensor(replay, config.schedule, clock)
+
+
 SENSOR_TYPES: dict[str, SensorType] = {
     "webcam": SensorType(WebcamConfig, _load_webcam, "a camera, video file or stream URL through OpenCV"),
     "pads": SensorType(PadsConfig, _load_pads, "force pads on a serial port (binary COBS+CRC frames or CSV lines)"),
     "replay": SensorType(ReplayConfig, _load_replay, "one sensor channel of an MCAP recording, on the loop's clock"),
+    "oak": SensorType(OakConfig, _load_oak, "a Luxonis OAK camera (depthai 3): stereo depth aligned to colour"),
+    "faulty-replay": SensorType(FaultyReplayConfig, _load_faulty_replay,
+                                "a replay that disconnects, fails or garbles frames on a schedule (tests recovery)"),
 }

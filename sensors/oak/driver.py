@@ -1,0 +1,315 @@
+"""OakSensor: a Luxonis OAK camera as a Sensor — stereo depth aligned to the colour camera.
+
+- ``open()`` searches for the camera (bounded by ``search_timeout_s``: never depthai's ~11 s wait
+  when nothing is attached), picks the configured one (id, IP or USB port name) or the first free
+  one, and waits at most ``connect_timeout_s`` for it to boot and start. Anything wrong raises
+  :class:`SensorUnavailable` naming the camera and what to check.
+- A thread owns the connection (the device, its pipeline, its queue: depthai objects never leave
+  it). Each message becomes ``Frame(DepthImage(depth_mm, fx, fy, cx, cy, color))`` in a small
+  bounded queue (the oldest is dropped when it is full, and counted); ``read(timeout)`` waits at
+  most ``timeout``. Intrinsics come from each frame, else from the device's calibration.
+- Losing the camera never reaches the loop as an exception. depthai's own reconnection
+  (``reconnect_attempts``) runs first and shows as RECONNECTING; when it gives up, or a queue read
+  raises (``X_LINK_ERROR`` after a cable glitch, a stopped pipeline), or the camera sends nothing
+  for ``stall_s``, the thread drops the connection and retries — search, pick, connect — after
+  ``reconnect_s``, doubling up to ``reconnect_max_s`` (a closed device reboots and is briefly
+  unavailable). ``give_up_after`` failed attempts (0 = never) turn the sensor FAILED; then ``read``
+  raises :class:`OakFailed` with the reason.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from types import TracebackType
+
+from sensors.base import (
+    Frame,
+    SensorError,
+    SensorNotOpen,
+    SensorSpec,
+    SensorState,
+    SensorStatus,
+    SensorUnavailable,
+)
+from sensors.clock import Clock
+from sensors.oak.config import OakConfig
+from sensors.oak.frames import BadMessage, FrameNumbering, make_frame
+from sensors.oak.link import Backoff, Connector, LinkHealth, OakLink
+from sensors.oak.search import DeviceSearch, FoundDevice, link_hint, pick_device
+
+QUEUE_SIZE = 4  # frames waiting for read(): at 30 fps, 130 ms
+READ_SLICE_S = 0.05  # the thread's longest wait in one queue read (bounds close())
+_JOIN_S = 3.0
+
+
+class OakFailed(SensorError):
+    """The camera is gone for good (``give_up_after`` attempts failed): the message says why."""
+
+
+class _Start:
+    """The handshake between ``open()`` and the thread's first connect (one per open)."""
+
+    def __init__(self) -> None:
+        self.done = threading.Event()
+        self.error: BaseException | None = None
+
+
+def _default_connector(found: FoundDevice, config: OakConfig) -> OakLink:
+    from sensors.oak.device import connect_device
+
+    return connect_device(found, config)
+
+
+class OakSensor:
+    def __init__(self, config: OakConfig, clock: Clock, name: str = "oak", *, search: DeviceSearch | None = None,
+                 connect: Connector | None = None) -> None:
+        self.config = config
+        self.name = name
+        self._clock = clock
+        self._search = search if search is not None else DeviceSearch()
+        self._connect = connect if connect is not None else _default_connector
+        self._spec = SensorSpec(name=name, kind="depth", rate_hz=float(config.fps), width=config.width,
+                                height=config.height)
+        self._lock = threading.Lock()
+        self._arrived = threading.Condition(self._lock)
+        self._queue: deque[Frame] = deque(maxlen=QUEUE_SIZE)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._open = False
+        self._state = SensorState.CLOSED
+        self._reason = ""
+        self._reset_counts()
+
+    def _reset_counts(self) -> None:
+        self._frames = 0
+        self._queue_dropped = 0
+        self._bad = 0
+        self._reconnects = 0
+        self._sources = {"frame": 0, "calibration": 0, "none": 0}
+        self._numbering = FrameNumbering()
+        self.device_id = ""
+
+    @property
+    def spec(self) -> SensorSpec:
+        return self._spec
+
+    @property
+    def status(self) -> SensorStatus:
+        with self._lock:
+            reason = self._reason
+            if self._state is SensorState.CONNECTED and not reason and self._sources["none"]:
+                reason = (f"{self._label()}: frames carry no intrinsics and the device has no calibration; depth "
+                          "is usable, 3D positions are not (recalibrate the camera)")
+            return SensorStatus(
+                state=self._state, reason=reason, frames=self._frames,
+                dropped=self._queue_dropped + self._numbering.skipped, bad=self._bad,
+                extra={"reconnects": float(self._reconnects), "dropped_in_queue": float(self._queue_dropped),
+                       "dropped_on_device": float(self._numbering.skipped),
+                       "intrinsics_from_frame": float(self._sources["frame"]),
+                       "intrinsics_from_calibration": float(self._sources["calibration"]),
+                       "uncalibrated": float(self._sources["none"])},
+            )
+
+    def _label(self) -> str:
+        return f"oak {self.name!r} (OAK {self.device_id or self.config.device or '?'})"
+
+    def _set_state(self, state: SensorState, reason: str) -> None:
+        with self._arrived:
+            self._state, self._reason = state, reason
+            self._arrived.notify_all()
+
+    # -------------------------------------------------------------- opening
+
+    def _find(self) -> FoundDevice:
+        found = self._search.find(self.config.search_timeout_s)  # SensorUnavailable on timeout / failure
+        return pick_device(found, self.config.device, self.name)
+
+    def open(self) -> None:
+        if self._open:
+            return
+        try:
+            found = self._find()
+        except SensorUnavailable as e:
+            text = str(e)
+            raise SensorUnavailable(text if text.startswith("oak ") else f"oak {self.name!r}: {text}") from e
+        with self._lock:
+            self._queue.clear()
+            self._reset_counts()
+            self._numbering = FrameNumbering(start_t=self._clock.now())
+            self.device_id = found.device_id or found.name
+            self._state, self._reason = SensorState.RECONNECTING, f"connecting to {found.describe()}"
+        self._stop = threading.Event()  # a fresh one: a thread of an earlier open may still be winding down
+        start = _Start()
+        self._thread = threading.Thread(target=self._run, args=(found, start, self._stop), name=f"oak-{self.name}",
+                                        daemon=True)
+        self._thread.start()
+        if not start.done.wait(self.config.connect_timeout_s):
+            self._halt(join=False)  # the thread is stuck in depthai's connect: it closes what it gets, then ends
+            raise SensorUnavailable(f"{self._label()}: did not start within {self.config.connect_timeout_s:g} s "
+                                    f"(connect_timeout_s); {link_hint('TIMEOUT')}")
+        if start.error is not None:
+            error = start.error
+            self._halt()
+            raise SensorUnavailable(f"{self._label()}: cannot start: {error}; {link_hint(str(error))}") from error
+        self._open = True
+
+    # -------------------------------------------------------------- the thread that owns the camera
+
+    def _run(self, found: FoundDevice, start: _Start, stop: threading.Event) -> None:
+        link: OakLink | None = None
+        try:
+            try:
+                link = self._connect(found, self.config)
+            except Exception as e:  # reported by open() as SensorUnavailable
+                start.error = e
+                return
+            finally:
+                start.done.set()
+            if stop.is_set():
+                return
+            self._set_state(SensorState.CONNECTED, "")
+            link = self._serve(link, stop)
+        except Exception as e:  # a bug, not a camera fault: say so in the status, and let it be printed
+            self._set_state(SensorState.FAILED, f"{self._label()}: the camera thread stopped: {e!r}")
+            raise
+        finally:
+            if link is not None:
+                link.close()
+
+    def _serve(self, link: OakLink | None, stop: threading.Event) -> OakLink | None:
+        """Read frames, reconnect when the link is lost; returns the link still open at the end."""
+        c = self.config
+        backoff = Backoff(c.reconnect_s, c.reconnect_max_s, c.give_up_after)
+        last_frame = time.monotonic()
+        lost = ""
+        while not stop.is_set():
+            if link is None:
+                delay = backoff.next_delay()
+                if delay is None:
+                    self._set_state(SensorState.FAILED, f"{lost}; gave up after {c.give_up_after} attempts "
+                                                        "(give_up_after)")
+                    return None
+                self._set_state(SensorState.RECONNECTING, f"{lost}; retry {backoff.attempts} in {delay:g} s")
+                if stop.wait(delay):
+                    return None
+                link, why = self._reconnect()
+                if stop.is_set():  # closed while reconnecting: leave the state to close()
+                    return link
+                if link is None:
+                    lost = why
+                    continue
+                backoff.reset()
+                self._numbering.restart_device_numbering()
+                with self._lock:
+                    self._reconnects += 1
+                self._set_state(SensorState.CONNECTED, "")
+                last_frame = time.monotonic()
+                continue
+            try:
+                got = link.read(READ_SLICE_S)
+            except Exception as e:  # X_LINK_ERROR, QueueException: a lost link, never a crash of the loop
+                lost = f"{self._label()}: lost the camera ({e}); {link_hint(str(e))}"
+                link = self._drop(link)
+                continue
+            health, detail = link.health()
+            if health is LinkHealth.FAILED:
+                lost = f"{self._label()}: depthai could not reconnect ({detail}); {link_hint('X_LINK_ERROR')}"
+                link = self._drop(link)
+                continue
+            if health is LinkHealth.RECONNECTING:
+                if self._state is not SensorState.RECONNECTING:
+                    self._set_state(SensorState.RECONNECTING, f"{self._label()}: link lost, depthai is reconnecting "
+                                                              f"({detail}); {link_hint('X_LINK_ERROR')}")
+                if time.monotonic() - last_frame > c.connect_timeout_s:
+                    lost = f"{self._label()}: depthai's reconnection took over {c.connect_timeout_s:g} s"
+                    link = self._drop(link)
+                continue
+            if self._state is not SensorState.CONNECTED:  # depthai reconnected by itself
+                self._numbering.restart_device_numbering()
+                with self._lock:
+                    self._reconnects += 1
+                self._set_state(SensorState.CONNECTED, "")
+            if got is None:
+                if time.monotonic() - last_frame > c.stall_s:
+                    lost = f"{self._label()}: no frame for {c.stall_s:g} s (stall_s); the pipeline hung"
+                    link = self._drop(link)
+                continue
+            last_frame = time.monotonic()
+            self._deliver(link, got.message, got.age_s)
+        return link
+
+    @staticmethod
+    def _drop(link: OakLink) -> None:
+        link.close()
+        return None
+
+    def _reconnect(self) -> tuple[OakLink | None, str]:
+        try:
+            found = self._find()
+        except SensorUnavailable as e:
+            return None, f"{self._label()}: {e}"
+        try:
+            link = self._connect(found, self.config)
+        except Exception as e:  # the camera is rebooting, or still in use: try again later
+            return None, f"{self._label()}: cannot reconnect to {found.describe()}: {e}; {link_hint(str(e))}"
+        with self._lock:
+            self.device_id = found.device_id or found.name
+        return link, ""
+
+    def _deliver(self, link: OakLink, message: object, age_s: float) -> None:
+        now = self._clock.now()
+        with self._arrived:
+            try:
+                frame, source = make_frame(self.name, message, self._numbering, now=now, age_s=age_s,
+                                           size=self.config.size, fallback=link.calibration)
+            except BadMessage as e:
+                self._bad += 1
+                self._reason = f"{self._label()}: bad message ({e})"
+                return
+            self._sources[source] += 1
+            if len(self._queue) == QUEUE_SIZE:
+                self._queue_dropped += 1
+            self._queue.append(frame)
+            self._arrived.notify_all()
+
+    # -------------------------------------------------------------- reading
+
+    def read(self, timeout: float) -> Frame | None:
+        if not self._open:
+            raise SensorNotOpen(f"oak {self.name!r}: read before open (or after close)")
+        with self._arrived:
+            if not self._queue and self._state is not SensorState.FAILED:
+                self._arrived.wait_for(lambda: bool(self._queue) or self._state is SensorState.FAILED,
+                                       timeout=max(timeout, 0.0))
+            if self._queue:
+                self._frames += 1
+                return self._queue.popleft()
+            if self._state is SensorState.FAILED:
+                raise OakFailed(self._reason)
+            return None
+
+    # -------------------------------------------------------------- closing
+
+    def _halt(self, join: bool = True) -> None:
+        self._stop.set()
+        thread, self._thread = self._thread, None
+        if thread is not None and join:
+            thread.join(_JOIN_S)  # a read returns within READ_SLICE_S; a hung connect is left to finish
+        with self._lock:
+            self._queue.clear()
+            self._state, self._reason = SensorState.CLOSED, ""
+
+    def close(self) -> None:
+        self._halt()
+        self._open = False
+
+    def __enter__(self) -> OakSensor:
+        self.open()
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
