@@ -45,6 +45,14 @@ class WebcamObserverConfig:
     the local image scale). Velocity: the median DIS optical flow (``flow_preset``, its finest
     pyramid level overridden by ``flow_finest_scale``: 0 full work size, 1 half, 2 quarter) over the
     person's pixels in a ``flow_window_px`` square at each contactor, over the frame interval.
+
+    Pose (``pose = true``): BlazePose's 33 keypoints per person through ``cv2.dnn`` (see
+    :mod:`interaction.pose`), from the model files in ``pose_model_dir`` ("" = the cache that
+    ``python -m interaction.pose_models`` fills). Hands and feet become contactors of their own
+    ("left_hand", "right_hand", "left_foot", "right_foot"; radius ``pose_radius_m``) with their own
+    velocities, when the person's score is at least ``pose_min_score``, the keypoints' visibility at
+    least ``pose_min_visibility``, and they lie on the person's silhouette. Without the model files
+    the observer says so once and runs silhouette-only.
     """
 
     work_width: int = 320
@@ -65,6 +73,11 @@ class WebcamObserverConfig:
     track_memory_frames: int = 15
     refresh_rate: float = 0.02
     refresh_after_empty_frames: int = 30
+    pose: bool = False
+    pose_model_dir: str = ""
+    pose_min_score: float = 0.5
+    pose_min_visibility: float = 0.5
+    pose_radius_m: float = 0.1
 
     def __post_init__(self) -> None:
         def whole(name: str, lo: int, hi: int) -> None:
@@ -97,3 +110,9 @@ class WebcamObserverConfig:
         whole("track_memory_frames", 0, 100000)
         number("refresh_rate", 0.0, 1.0)
         whole("refresh_after_empty_frames", 0, 100000)
+        _need(isinstance(self.pose, bool), "pose", "true or false", self.pose)
+        _need(isinstance(self.pose_model_dir, str), "pose_model_dir", "a folder path (\"\" = the default cache)",
+              self.pose_model_dir)
+        number("pose_min_score", 0.0, 1.0)
+        number("pose_min_visibility", 0.0, 1.0)
+        number("pose_radius_m", 0.0, 10.0, lo_open=True)

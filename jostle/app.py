@@ -114,7 +114,7 @@ class App:
         for entry in cfg.sensors:
             sensors[entry.name] = SENSOR_TYPES[entry.type].loader(entry.config, entry.name, self.clock)
         for ob in cfg.observers:
-            observers[ob.name] = (ob.sensor, observer_types()[ob.type].build(ob.config, ob.calibration))
+            observers[ob.name] = (ob.sensor, observer_types()[ob.type].build(ob.config, ob.calibration, ob.sensor))
         recordings = [str(e.config.path) for e in cfg.sensors if _is_replay(e.config)]
         self.summary.recording = ", ".join(recordings) if recordings else None
 

@@ -17,10 +17,11 @@ def add_all(sub: Sub) -> None:
     _add_record(sub)
     _add_replay(sub)
     _add_info(sub)
-    from jostle import bench_cli, keyframes_cli, synth_cli, tools_cli
+    from jostle import bench_cli, calibrate_cli, keyframes_cli, synth_cli, tools_cli
 
     synth_cli.add(sub)
     keyframes_cli.add(sub)
+    calibrate_cli.add(sub)
     tools_cli.add(sub)
     bench_cli.add(sub)
 

@@ -19,7 +19,7 @@ class Observer(Protocol):
 @dataclass(frozen=True)
 class ObserverType:
     config: type  # frozen config dataclass built from the table's other keys
-    build: Callable[[Any, Path | None], Observer]  # (config, calibration file or None) → observer
+    build: Callable[[Any, Path | None, str], Observer]  # (config, calibration file or None, sensor) → observer
     needs_calibration: bool
     description: str
 
@@ -30,7 +30,7 @@ def _webcam_config() -> type:
     return WebcamObserverConfig
 
 
-def _build_webcam(config: Any, calibration: Path | None) -> Observer:
+def _build_webcam(config: Any, calibration: Path | None, sensor: str) -> Observer:
     from interaction.calibration import Calibration
     from interaction.webcam import WebcamObserver, WebcamObserverConfig
 
@@ -39,9 +39,24 @@ def _build_webcam(config: Any, calibration: Path | None) -> Observer:
     return WebcamObserver(config, Calibration.load(calibration))
 
 
+def _pads_config() -> type:
+    from interaction.pads import PadsObserverConfig
+
+    return PadsObserverConfig
+
+
+def _build_pads(config: Any, calibration: Path | None, sensor: str) -> Observer:
+    from interaction.pads import PadsObserver, PadsObserverConfig
+
+    if not isinstance(config, PadsObserverConfig):
+        raise TypeError("pads observer: expected a PadsObserverConfig")
+    return PadsObserver(config, sensor)
+
+
 def observer_types() -> dict[str, ObserverType]:
     """The table (built on call: the config classes live in modules that import OpenCV)."""
     return {
         "webcam": ObserverType(_webcam_config(), _build_webcam, True,
-                               "silhouette, optical flow and contactors from colour frames"),
+                               "silhouette, optical flow (and pose keypoints) → contactors, from colour frames"),
+        "pads": ObserverType(_pads_config(), _build_pads, False, "force pads → one impulse per hit"),
     }

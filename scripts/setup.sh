@@ -56,3 +56,7 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   "$VENV/bin/python" -m pip install -q -e '.[dev]'
   touch "$stamp"
 fi
+
+# --- optional pose model (BlazePose, from the mediapipe wheel; never mediapipe itself) -----------
+# Without network this only warns: the webcam observer then runs silhouette-only and says so.
+"$VENV/bin/python" -m interaction.pose_models || true
