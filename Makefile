@@ -31,3 +31,14 @@ bench: setup
 
 clean:
 	rm -rf out .pytest_cache .mypy_cache .ruff_cache
+
+# Small synthetic recordings (webcam, OAK depth, pads, ground truth) that tests replay; rebuilt by the
+# command itself (tests/test_performer_fixtures.py checks the committed ones are what it builds).
+FIXTURE_SENSORS := --sensors webcam,oak,pads --truth --duration 6.5 --empty 1 --fps 10 --size 160x120 \
+	--depth-size 160x100 --depth-fps 10 --no-depth-color --jpeg-quality 80
+
+.PHONY: fixtures
+fixtures: setup
+	$(BIN)/jostle synth performer --people 2 --seed 0 $(FIXTURE_SENSORS) --out tests/fixtures/crossing2.mcap
+	$(BIN)/jostle synth performer --people 3 --seed 1 --person-clips walk --person-clips walk+punch \
+		--person-clips walk $(FIXTURE_SENSORS) --out tests/fixtures/group3.mcap

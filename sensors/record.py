@@ -12,15 +12,20 @@ What "identical" means when a replay is recorded again (``record(replay(f))``):
 
 Times: ``Frame.t`` (seconds) is stored as integer nanoseconds (MCAP log and publish time, and the
 message's own timestamp), so it is rounded to 1 ns; a replayed time is ``ns / 1e9``.
+
+Data that is not a sensor frame (the virtual performer's ground truth, annotations) goes in with
+:meth:`RecordingWriter.write_json` on a channel of its own, which replays leave alone.
 """
 
 from __future__ import annotations
 
+import json
 import threading
 from datetime import UTC, datetime
 from importlib import metadata as importlib_metadata
 from pathlib import Path
 from types import TracebackType
+from typing import Any
 
 from mcap.writer import CompressionType, Writer
 
@@ -96,6 +101,8 @@ class RecordingWriter:
         self._channels: dict[str, tuple[int, str]] = {}  # topic → (channel id, schema name)
         self._sensor_kind: dict[str, str] = {}
         self._sensor_last_ns: dict[str, int] = {}
+        self._json_seq: dict[str, int] = {}
+        self._json_last_ns: dict[str, int] = {}
         self._last_flush_ns: int | None = None
         self._closed = False
         self.frames_written = 0
@@ -154,6 +161,50 @@ class RecordingWriter:
             elif t_ns - self._last_flush_ns >= self._flush_ns:
                 self._writer.flush()
                 self._last_flush_ns = t_ns
+
+    def write_json(
+        self, topic: str, schema_name: str, schema: dict[str, Any], t: float, obj: Any, *, seq: int | None = None
+    ) -> None:
+        """Append one JSON message that is not a sensor frame (ground truth, annotations) to ``topic``.
+
+        The channel is made on first use with ``schema`` (a JSON Schema, stored as MCAP
+        ``jsonschema`` under ``schema_name``) and channel metadata ``jostle.role = "other"``, so
+        ``Replay`` and ``describe_recording`` leave it alone (listed as kind "other"). ``seq`` counts
+        up from 0 per topic unless given; times on one topic must not go back. ``obj`` is written
+        with ``json.dumps`` (finite numbers only).
+        """
+        t_ns = seconds_to_ns(t)
+        if t_ns < 0:
+            raise ValueError(f"topic {topic!r}: t={t} s; MCAP times cannot be negative")
+        data = json.dumps(obj, allow_nan=False, separators=(",", ":")).encode()
+        with self._lock:
+            if self._closed:
+                raise ValueError(f"{self.path}: recording is closed")
+            known = self._channels.get(topic)
+            if (known is not None or topic in self._sensor_kind) and topic not in self._json_seq:
+                raise ValueError(f"topic {topic!r}: already a sensor's channel")
+            if known is None:
+                schema_id = self._schemas.get(schema_name)
+                if schema_id is None:
+                    schema_id = self._writer.register_schema(name=schema_name, encoding="jsonschema",
+                                                             data=json.dumps(schema).encode())
+                    self._schemas[schema_name] = schema_id
+                channel_id = self._writer.register_channel(topic=topic, message_encoding="json", schema_id=schema_id,
+                                                           metadata={META_ROLE: "other"})
+                known = self._channels[topic] = (channel_id, schema_name)
+                self._json_seq[topic] = 0
+            elif known[1] != schema_name:
+                raise ValueError(f"topic {topic!r}: channel holds {known[1]}, cannot write {schema_name} to it")
+            last = self._json_last_ns.get(topic)
+            if last is not None and t_ns < last:
+                raise ValueError(f"topic {topic!r}: time went back from {last / 1e9} s to {t} s")
+            sequence = self._json_seq[topic] if seq is None else seq
+            if not 0 <= sequence < _UINT32:
+                raise ValueError(f"topic {topic!r}: seq={sequence} does not fit MCAP's 32-bit sequence")
+            self._writer.add_message(channel_id=known[0], log_time=t_ns, data=data, publish_time=t_ns,
+                                     sequence=sequence)
+            self._json_seq[topic] = sequence + 1
+            self._json_last_ns[topic] = t_ns
 
     def close(self) -> None:
         with self._lock:

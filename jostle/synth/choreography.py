@@ -57,6 +57,7 @@ class StagePose:
     rotation: np.ndarray  # (4,)
     joint_rots: np.ndarray  # (J, 4)
     mocap_rotation: np.ndarray  # (4,) the same root rotation expressed in the Y-up frame
+    scale: float = 1.0  # body size: every bone of ``render.mocap.HUMANOID`` times this
 
     def joint_positions(self) -> np.ndarray:
         """Stage positions (B, 3) of every bone of ``render.mocap.HUMANOID``, in its ``names`` order."""
@@ -65,18 +66,38 @@ class StagePose:
 
 def stage_joint_positions(poses: list[StagePose]) -> np.ndarray:
     """Stage positions (N, B, 3) of every bone for several poses at once (one vectorised FK)."""
-    heights = np.array([[0.0, float(p.position[2]), 0.0] for p in poses])
+    return stage_joint_frames(poses)[0]
+
+
+def stage_joint_frames(poses: list[StagePose]) -> tuple[np.ndarray, np.ndarray]:
+    """Stage positions (N, B, 3) of every bone and the Y-up rotations (N, B, 4) of their frames.
+
+    A bone's local vector v (metres of the unscaled skeleton, Y-up link frame) lies at
+    ``position + mocap_to_stage(quat.rotate(rotation, v)) * scale`` on the stage.
+    """
+    scales = np.array([p.scale for p in poses])
+    heights = np.array([[0.0, float(p.position[2]) / p.scale, 0.0] for p in poses])
     rots = np.stack([p.mocap_rotation for p in poses])
     joints = np.stack([p.joint_rots for p in poses])
-    pos, _ = HUMANOID.forward_kinematics(heights, rots, joints)
+    pos, rot = HUMANOID.forward_kinematics(heights, rots, joints)
     out = mocap_to_stage(pos)
+    if np.any(scales != 1.0):
+        out *= scales[:, None, None]
     out[..., 0] += np.array([p.position[0] for p in poses])[:, None]
     out[..., 1] += np.array([p.position[1] for p in poses])[:, None]
-    return out
+    return out, rot
+
+
+def scaled_clip(clip: MotionClip, scale: float) -> MotionClip:
+    """The clip performed by a body ``scale`` times the size: the root's travel and height scale
+    with it (so the feet still meet the floor and do not slide); rotations and timing are kept."""
+    if scale == 1.0:
+        return clip
+    return MotionClip(clip.name, clip.loop, clip.times, clip.root_pos * scale, clip.root_rot, clip.joint_rots)
 
 
 @dataclass(frozen=True)
-class _Sample:
+class PoseSample:
     xy: np.ndarray  # (2,) stage position of the root
     height: float  # root height above the floor
     rot: np.ndarray  # (4,) root rotation in the Y-up frame, heading included
@@ -84,8 +105,12 @@ class _Sample:
 
 
 @dataclass(frozen=True, eq=False)
-class _Walk:
-    """Walking along a straight line (curvature 0) or an arc (curvature 1/r, > 0 turns left)."""
+class WalkSegment:
+    """Walking along a straight line (curvature 0) or an arc (curvature 1/r, > 0 turns left).
+
+    The clip plays ``rate`` times its own speed (a faster or slower walker); ``speed`` is the
+    travel along the path in m/s (the clip's own pace times ``rate`` keeps the feet from sliding).
+    """
 
     clip: MotionClip
     start: float
@@ -96,24 +121,25 @@ class _Walk:
     curvature: float
     speed: float
     phase0: float  # clip time at the start of the segment
+    rate: float = 1.0
 
     def _place(self, s: float) -> tuple[float, float, float]:
-        return _along(self.x0, self.y0, self.heading0, self.curvature, s)
+        return walk_along(self.x0, self.y0, self.heading0, self.curvature, s)
 
-    def sample(self, u: float) -> _Sample:
+    def sample(self, u: float) -> PoseSample:
         x, y, h = self._place(self.speed * u)
-        pos, rot, joints = self.clip.sample(self.phase0 + u)
+        pos, rot, joints = self.clip.sample(self.phase0 + (u if self.rate == 1.0 else self.rate * u))
         travel = self.clip.cycle_offset
         clip_heading = math.atan2(-float(travel[2]), float(travel[0]))
         full = quat.multiply(yaw_quat(h - clip_heading), rot)
-        return _Sample(np.array([x, y]), float(pos[1]), full, joints)
+        return PoseSample(np.array([x, y]), float(pos[1]), full, joints)
 
     def end_state(self) -> tuple[float, float, float]:
         return self._place(self.speed * self.duration)
 
 
 @dataclass(frozen=True, eq=False)
-class _Action:
+class ActionSegment:
     """A whole clip played from its first frame, starting at (x0, y0) facing heading0."""
 
     clip: MotionClip
@@ -123,7 +149,7 @@ class _Action:
     y0: float
     heading0: float
 
-    def sample(self, u: float) -> _Sample:
+    def sample(self, u: float) -> PoseSample:
         pos, rot, joints = self.clip.sample(u)
         turn = yaw_quat(-yaw_of(self.clip.root_rot[0]))
         d = quat.rotate(turn, pos - self.clip.root_pos[0])  # in the clip's start frame
@@ -134,17 +160,17 @@ class _Action:
              self.y0 + forward * math.sin(h) - right * math.cos(h)]
         )
         full = quat.multiply(yaw_quat(h), quat.multiply(turn, rot))
-        return _Sample(xy, float(pos[1]), full, joints)
+        return PoseSample(xy, float(pos[1]), full, joints)
 
     def end_state(self) -> tuple[float, float, float]:
         s = self.sample(self.duration)
         return float(s.xy[0]), float(s.xy[1]), yaw_of(s.rot)
 
 
-_Segment = _Walk | _Action
+Segment = WalkSegment | ActionSegment
 
 
-def _along(x0: float, y0: float, h0: float, curvature: float, s: float) -> tuple[float, float, float]:
+def walk_along(x0: float, y0: float, h0: float, curvature: float, s: float) -> tuple[float, float, float]:
     """(x, y, heading) after walking a distance s from (x0, y0, h0) on a line or an arc."""
     h = h0 + curvature * s
     if abs(curvature) < 1e-9:
@@ -162,7 +188,127 @@ def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
-class Choreography:
+class SegmentPath:
+    """A person's path as a list of segments (walks and actions) in time, sampled by :meth:`pose`.
+
+    Subclasses build the segments with the ``_add_walk``/``_arc``/``_action``/``_go_to`` steps,
+    starting at time ``start_s`` in state ``(x, y, heading)``. ``walk`` is the locomotion clip (at
+    the body's scale), played ``rate`` times its own pace. When ``periodic`` the path repeats with
+    period ``period``; otherwise the person is absent before the first segment and after the last.
+    """
+
+    def __init__(
+        self,
+        walk: MotionClip,
+        *,
+        start_s: float,
+        state: tuple[float, float, float],
+        turn_radius: float,
+        rate: float = 1.0,
+        scale: float = 1.0,
+        blend_s: float = 0.3,
+        periodic: bool = False,
+    ) -> None:
+        travel = float(np.linalg.norm(walk.cycle_offset))
+        if not walk.loop or walk.duration <= 0 or travel / walk.duration < 0.2 * scale:
+            raise ValueError(
+                f"clips: the first clip must be a looping clip that travels (walk, run), got {walk.name!r}"
+            )
+        self.walk = walk
+        self.rate = rate
+        self.speed = travel / walk.duration * rate
+        self.scale = scale
+        self.blend_s = blend_s
+        self.radius = turn_radius
+        self.periodic = periodic
+        self.segments: list[Segment] = []
+        self._t = start_s
+        self._phase = 0.0
+        self._state = state
+        self.period = start_s
+
+    # ------------------------------------------------------------ building
+
+    def _add_walk(self, length: float, curvature: float) -> None:
+        if length <= 1e-6:
+            return
+        x, y, h = self._state
+        seg = WalkSegment(self.walk, self._t, length / self.speed, x, y, h, curvature, self.speed, self._phase,
+                          self.rate)
+        self.segments.append(seg)
+        self._t += seg.duration
+        self._phase += seg.duration if self.rate == 1.0 else seg.duration * self.rate
+        self._state = seg.end_state()
+        self.period = self._t
+
+    def _straight_to_x(self, x_target: float) -> None:
+        x, _, h = self._state
+        along = (x_target - x) / math.cos(h) if abs(math.cos(h)) > 1e-6 else 0.0
+        self._add_walk(max(along, 0.0), 0.0)
+
+    def _arc(self, angle: float) -> None:
+        curvature = math.copysign(1.0 / self.radius, angle)
+        self._add_walk(abs(angle) * self.radius, curvature)
+
+    def _action(self, clip: MotionClip) -> None:
+        """Play a clip, turned so that its own net travel runs along the current heading."""
+        x, y, h = self._state
+        turn = yaw_quat(-yaw_of(clip.root_rot[0]))
+        d = quat.rotate(turn, clip.root_pos[-1] - clip.root_pos[0])
+        if math.hypot(float(d[0]), float(d[2])) > 0.3 * self.scale:
+            h += math.atan2(float(d[2]), float(d[0]))
+        seg = ActionSegment(clip, self._t, clip.duration, x, y, h)
+        self.segments.append(seg)
+        self._t += seg.duration
+        self._state = seg.end_state()
+        self.period = self._t
+
+    def _go_to(self, x_target: float, y_target: float) -> None:
+        """Turn on an arc toward the target, then walk straight to it."""
+        x, y, h = self._state
+        turn = 0.0
+        for _ in range(8):  # the arc moves the start of the straight line: settle the angle
+            curvature = math.copysign(1.0 / self.radius, turn)
+            ex, ey, _ = walk_along(x, y, h, curvature, abs(turn) * self.radius)
+            turn = _wrap(math.atan2(y_target - ey, x_target - ex) - h)
+        if abs(turn) > 1e-3:
+            self._arc(turn)
+        x, y, _ = self._state
+        self._add_walk(math.hypot(x_target - x, y_target - y), 0.0)
+
+    # ------------------------------------------------------------ sampling
+
+    def pose(self, t: float) -> StagePose | None:
+        """The pose at time t (seconds from the start), or None while the person is not on the stage."""
+        tau = t % self.period if self.periodic and self.period > 0 else t
+        i = self._segment_at(tau)
+        if i is None:
+            return None
+        seg = self.segments[i]
+        s = seg.sample(tau - seg.start)
+        u = tau - seg.start
+        if i > 0 and u < self.blend_s and self._hands_over(i):
+            prev = self.segments[i - 1]
+            p = prev.sample(tau - prev.start)
+            w = _smoothstep(u / self.blend_s)
+            rot = quat.slerp(p.rot, s.rot, w)
+            joints = quat.slerp(p.joints, s.joints, w)
+            s = PoseSample(s.xy, (1 - w) * p.height + w * s.height, rot, joints)
+        stage_rot = quat.multiply(Y_UP_TO_Z_UP, s.rot)
+        position = np.array([s.xy[0], s.xy[1], s.height])
+        return StagePose(position, stage_rot, s.joints, s.rot, self.scale)
+
+    def _segment_at(self, tau: float) -> int | None:
+        for i, seg in enumerate(self.segments):
+            if seg.start <= tau < seg.start + seg.duration:
+                return i
+        return None
+
+    def _hands_over(self, i: int) -> bool:
+        return isinstance(self.segments[i], ActionSegment) or isinstance(self.segments[i - 1], ActionSegment)
+
+
+class Choreography(SegmentPath):
     """The performer's round, repeated with period ``period``:
 
     1. the empty stage for ``empty_s`` seconds;
@@ -185,21 +331,11 @@ class Choreography:
         turn_radius: float,
         empty_s: float,
         blend_s: float = 0.3,
+        scale: float = 1.0,
     ) -> None:
-        travel = float(np.linalg.norm(walk.cycle_offset))
-        if not walk.loop or walk.duration <= 0 or travel / walk.duration < 0.2:
-            raise ValueError(
-                f"clips: the first clip must be a looping clip that travels (walk, run), got {walk.name!r}"
-            )
-        self.walk = walk
-        self.speed = travel / walk.duration
-        self.blend_s = blend_s
+        super().__init__(walk, start_s=empty_s, state=(entry_x, 0.0, 0.0), turn_radius=turn_radius,
+                         scale=scale, blend_s=blend_s, periodic=True)
         self.empty_s = empty_s
-        self.radius = turn_radius
-        self.segments: list[_Segment] = []
-        self._t = empty_s
-        self._phase = 0.0
-        self._state = (entry_x, 0.0, 0.0)
         if actions:
             self._straight_to_x(action_x)
             for clip in actions:
@@ -210,81 +346,3 @@ class Choreography:
             self._straight_to_x(turn_x)
         self._arc(math.pi)
         self._go_to(entry_x - 0.5, 0.0)
-        self.period = self._t
-
-    # ------------------------------------------------------------ building the round
-
-    def _add_walk(self, length: float, curvature: float) -> None:
-        if length <= 1e-6:
-            return
-        x, y, h = self._state
-        seg = _Walk(self.walk, self._t, length / self.speed, x, y, h, curvature, self.speed, self._phase)
-        self.segments.append(seg)
-        self._t += seg.duration
-        self._phase += seg.duration
-        self._state = seg.end_state()
-
-    def _straight_to_x(self, x_target: float) -> None:
-        x, _, h = self._state
-        along = (x_target - x) / math.cos(h) if abs(math.cos(h)) > 1e-6 else 0.0
-        self._add_walk(max(along, 0.0), 0.0)
-
-    def _arc(self, angle: float) -> None:
-        curvature = math.copysign(1.0 / self.radius, angle)
-        self._add_walk(abs(angle) * self.radius, curvature)
-
-    def _action(self, clip: MotionClip) -> None:
-        """Play a clip, turned so that its own net travel runs along the current heading."""
-        x, y, h = self._state
-        turn = yaw_quat(-yaw_of(clip.root_rot[0]))
-        d = quat.rotate(turn, clip.root_pos[-1] - clip.root_pos[0])
-        if math.hypot(float(d[0]), float(d[2])) > 0.3:
-            h += math.atan2(float(d[2]), float(d[0]))
-        seg = _Action(clip, self._t, clip.duration, x, y, h)
-        self.segments.append(seg)
-        self._t += seg.duration
-        self._state = seg.end_state()
-
-    def _go_to(self, x_target: float, y_target: float) -> None:
-        """Turn on an arc toward the target, then walk straight to it."""
-        x, y, h = self._state
-        turn = 0.0
-        for _ in range(8):  # the arc moves the start of the straight line: settle the angle
-            curvature = math.copysign(1.0 / self.radius, turn)
-            ex, ey, _ = _along(x, y, h, curvature, abs(turn) * self.radius)
-            turn = _wrap(math.atan2(y_target - ey, x_target - ex) - h)
-        if abs(turn) > 1e-3:
-            self._arc(turn)
-        x, y, _ = self._state
-        self._add_walk(math.hypot(x_target - x, y_target - y), 0.0)
-
-    # ------------------------------------------------------------ sampling
-
-    def pose(self, t: float) -> StagePose | None:
-        """The performer's pose at time t (seconds from the start), or None while the stage is empty."""
-        tau = t % self.period if self.period > 0 else t
-        i = self._segment_at(tau)
-        if i is None:
-            return None
-        seg = self.segments[i]
-        s = seg.sample(tau - seg.start)
-        u = tau - seg.start
-        if i > 0 and u < self.blend_s and self._hands_over(i):
-            prev = self.segments[i - 1]
-            p = prev.sample(tau - prev.start)
-            w = _smoothstep(u / self.blend_s)
-            rot = quat.slerp(p.rot, s.rot, w)
-            joints = quat.slerp(p.joints, s.joints, w)
-            s = _Sample(s.xy, (1 - w) * p.height + w * s.height, rot, joints)
-        stage_rot = quat.multiply(Y_UP_TO_Z_UP, s.rot)
-        position = np.array([s.xy[0], s.xy[1], s.height])
-        return StagePose(position, stage_rot, s.joints, s.rot)
-
-    def _segment_at(self, tau: float) -> int | None:
-        for i, seg in enumerate(self.segments):
-            if seg.start <= tau < seg.start + seg.duration:
-                return i
-        return None
-
-    def _hands_over(self, i: int) -> bool:
-        return isinstance(self.segments[i], _Action) or isinstance(self.segments[i - 1], _Action)

@@ -19,11 +19,37 @@ from render.mocap import URDF_SCALE
 
 RGBA = tuple[float, float, float, float]
 
-SKIN: RGBA = (0.87, 0.69, 0.57, 1.0)
-HAIR: RGBA = (0.23, 0.15, 0.10, 1.0)
-SHIRT: RGBA = (0.70, 0.17, 0.14, 1.0)
-JEANS: RGBA = (0.22, 0.31, 0.52, 1.0)
-SHOES: RGBA = (0.86, 0.86, 0.83, 1.0)
+SKIN = "skin"
+HAIR = "hair"
+SHIRT = "shirt"
+JEANS = "jeans"
+SHOES = "shoes"
+
+
+@dataclass(frozen=True)
+class Palette:
+    """The colours of one person's skin, hair and clothes."""
+
+    skin: RGBA
+    hair: RGBA
+    shirt: RGBA
+    jeans: RGBA
+    shoes: RGBA
+
+    def colour(self, role: str) -> RGBA:
+        return {SKIN: self.skin, HAIR: self.hair, SHIRT: self.shirt, JEANS: self.jeans, SHOES: self.shoes}[role]
+
+
+PALETTES: tuple[Palette, ...] = (
+    Palette((0.87, 0.69, 0.57, 1.0), (0.23, 0.15, 0.10, 1.0), (0.70, 0.17, 0.14, 1.0), (0.22, 0.31, 0.52, 1.0),
+            (0.86, 0.86, 0.83, 1.0)),  # red shirt, blue jeans (the demo's performer)
+    Palette((0.62, 0.45, 0.33, 1.0), (0.08, 0.07, 0.06, 1.0), (0.20, 0.55, 0.30, 1.0), (0.15, 0.15, 0.17, 1.0),
+            (0.25, 0.20, 0.18, 1.0)),  # green shirt, black trousers
+    Palette((0.93, 0.78, 0.68, 1.0), (0.78, 0.62, 0.32, 1.0), (0.88, 0.78, 0.25, 1.0), (0.45, 0.45, 0.47, 1.0),
+            (0.15, 0.15, 0.18, 1.0)),  # yellow shirt, grey trousers
+    Palette((0.45, 0.32, 0.24, 1.0), (0.12, 0.10, 0.09, 1.0), (0.25, 0.40, 0.78, 1.0), (0.42, 0.30, 0.20, 1.0),
+            (0.90, 0.90, 0.90, 1.0)),  # blue shirt, brown trousers
+)
 
 ALONG_Y = (-math.pi / 2, 0.0, 0.0)  # turns a URDF capsule (axis z) to lie along the link's y axis
 ALONG_Z = (0.0, 0.0, 0.0)
@@ -37,11 +63,11 @@ class Shape:
     kind: str
     size: tuple[float, ...]
     xyz: tuple[float, float, float]
-    colour: RGBA
+    colour: str  # a role of ``Palette``: skin, hair, shirt, jeans, shoes
     rpy: tuple[float, float, float] = ALONG_Y
 
 
-def _limb(centre_y: float, length: float, radius: float, colour: RGBA) -> Shape:
+def _limb(centre_y: float, length: float, radius: float, colour: str) -> Shape:
     return Shape("capsule", (radius, length), (0.0, centre_y, 0.0), colour)
 
 
@@ -85,8 +111,9 @@ def _fmt(values: tuple[float, ...]) -> str:
     return " ".join(f"{v:.6f}" for v in values)
 
 
-def dressed_urdf(source: Path) -> str:
-    """The URDF at ``source`` (pybullet_data's DeepMimic humanoid) with ``CLOTHES`` added as visuals."""
+def dressed_urdf(source: Path, palette: Palette = PALETTES[0]) -> str:
+    """The URDF at ``source`` (pybullet_data's DeepMimic humanoid) with ``CLOTHES`` added as visuals,
+    coloured from ``palette``."""
     text = source.read_bytes().rstrip(b"\x00").decode("utf-8")  # the shipped file ends with a NUL
     robot = ET.fromstring(text)
     links = {link.get("name"): link for link in robot.iter("link")}
@@ -108,5 +135,5 @@ def dressed_urdf(source: Path) -> str:
             else:
                 ET.SubElement(geometry, "box", size=_fmt(size))
             material = ET.SubElement(visual, "material", name=f"{name}_{len(links[name])}")
-            ET.SubElement(material, "color", rgba=_fmt(shape.colour))
+            ET.SubElement(material, "color", rgba=_fmt(palette.colour(shape.colour)))
     return ET.tostring(robot, encoding="unicode")

@@ -23,6 +23,7 @@ class RoomImage:
     floor_index: np.ndarray  # (N,) flat indices of the pixels that see the bare floor
     floor_xy: np.ndarray  # (N, 2) stage (x, y) of the floor those pixels see
     vignette: np.ndarray  # (H, W, 1) float32 lens fall-off, 1 at the centre
+    depth_m: np.ndarray  # (H, W) float32 distance of the surface seen along the optical axis
 
 
 @dataclass(frozen=True)
@@ -176,4 +177,5 @@ def render_room(camera: PinholeCamera, half_width: float, seed: int) -> RoomImag
     u, v = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
     r2 = ((u - k[0, 2]) ** 2 + (v - k[1, 2]) ** 2) / (k[0, 0] ** 2)
     vignette = (1.0 / (1.0 + 0.35 * r2) ** 2).astype(np.float32)[..., None]
-    return RoomImage(bgr, floor_index, floor_xy, vignette)
+    depth_m = (t * (d @ camera.rotation[2])).astype(np.float32)
+    return RoomImage(bgr, floor_index, floor_xy, vignette, depth_m)
