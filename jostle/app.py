@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
+from interaction.fusion import SensorFusion
 from interaction.types import BodyObservation
 from jostle.config import JostleConfig
 from jostle.observers import Observer, observer_types
@@ -168,6 +169,7 @@ class App:
         ended_at: float | None = None
         bar = Progress(total, "jostle run", "sim s", enabled=opts.progress)
         spent = self.stage_seconds
+        fusion = SensorFusion()  # a person seen by two sensors is pushed once
         t = self.clock.now()
         t0 = t
         try:
@@ -195,7 +197,7 @@ class App:
                                 self.summary.observed_frames_with_people += 1
                         mark = clock()
                     spent["sensors"] += clock() - mark
-                observation = BodyObservation.merge(now, list(latest.values()))
+                observation = fusion.merge(now, list(latest.values()))
                 mark = clock()
                 snap = world.step(observation, dt)
                 spent["simulate"] += clock() - mark

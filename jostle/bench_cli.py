@@ -25,7 +25,7 @@ BENCHES: dict[str, tuple[str, str]] = {
     "identify": ("sim.bench_identify", "the paper's observer experiment (§6.2) done by machine"),
     "render": ("render.bench", "headless frame rate and pose evaluation cost for N characters"),
     "sensors": ("sensors.bench", "pad parser fuzz and rate, recording replay speed"),
-    "interaction": ("interaction.bench", "observers against virtual-performer ground truth"),
+    "interaction": ("jostle.bench_interaction", "observers against virtual-performer ground truth"),
     "synth": ("jostle.synth.bench", "virtual performer: ms per frame of webcam, OAK depth (+colour) and pads"),
     "soak": ("jostle.soak", "the demo looped headless for minutes: memory and frame-rate drift"),
 }

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
 
 RAW = argparse.RawDescriptionHelpFormatter
 DEFAULT_NAME = "webcam.calibration.toml"
+DEFAULT_DEPTH_NAME = "depth.calibration.toml"
 
 
 def add(sub: Any) -> None:
@@ -29,7 +30,8 @@ def add(sub: Any) -> None:
         formatter_class=RAW,
         description="Calibrate a sensor onto the stage.\n\n"
         "  jostle calibrate board   write the board image to print (or to show on the screen)\n"
-        "  jostle calibrate webcam  find the board in a recording or a live camera → calibration TOML",
+        "  jostle calibrate webcam  find the board in a recording or a live camera → calibration TOML\n"
+        "  jostle calibrate depth   find the floor in an empty-stage depth recording → calibration TOML",
     )
     what = p.add_subparsers(dest="target", metavar="TARGET", required=True)
 
@@ -71,6 +73,8 @@ def add(sub: Any) -> None:
     w.add_argument("--preview", type=Path, default=None, metavar="PNG", help="also draw the fit on a frame")
     w.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     w.set_defaults(func=cmd_calibrate_webcam)
+
+    _add_depth(what)
 
     b = what.add_parser("board", help="write the board image", formatter_class=RAW,
                         description="Write the board as an image (print it at the scale given, or show it full screen).")
@@ -172,12 +176,12 @@ def cmd_calibrate_webcam(args: argparse.Namespace) -> int:
     return 0
 
 
-def _out_path(args: argparse.Namespace) -> Path:
+def _out_path(args: argparse.Namespace, default_name: str = DEFAULT_NAME) -> Path:
     out: Path | None = args.out
     if out is None:
         if args.config is None:
             raise _usage("--out: say where to write the calibration (or give --config to put it next to it)")
-        out = args.config.parent / DEFAULT_NAME
+        out = args.config.parent / default_name
     if out.exists() and not args.force:
         raise _usage(f"{out}: exists; pass --force to overwrite it")
     if not out.parent.is_dir():
@@ -234,3 +238,126 @@ def _write_preview(path: Path, bgr: np.ndarray, view: Any, fit: Any, placement: 
     cv2.putText(img, fit.describe()[:90], (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 255), 1)
     if not cv2.imwrite(str(path), img):
         raise _usage(f"{path}: cannot write the preview image")
+
+
+# ---------------------------------------------------------------- depth
+
+
+def _add_depth(what: Any) -> None:
+    d = what.add_parser(
+        "depth",
+        help="the depth camera → stage transform from the floor",
+        formatter_class=RAW,
+        description="Find the floor (RANSAC) in depth frames of the EMPTY stage, put the stage origin where\n"
+        "--origin says the camera stands (the stage x,y of the floor point straight below it) and the\n"
+        "stage's y axis along the camera's view laid flat (turned by --heading degrees toward the\n"
+        "audience's left), report the reprojection error (RMS distance of the floor's points to the\n"
+        "fitted floor), refuse it above --max-error, and write the calibration TOML.\n"
+        "With --show the fit is drawn in a window: Enter or space accepts it, Esc refuses.",
+        epilog="examples:\n"
+        "  jostle record configs/oak.toml --out empty.mcap --duration 2\n"
+        "  jostle calibrate depth --from empty.mcap --origin=0,-4 --config configs/oak.toml\n"
+        "  jostle calibrate depth --from empty.mcap --origin=0.5,-3.8 --heading 5 --show --out depth.toml",
+    )
+    d.add_argument("--from", dest="recording", type=Path, required=True, metavar="REC.mcap",
+                   help="a recording of the empty stage holding depth frames")
+    d.add_argument("--channel", default="", help="the recording's depth channel (default: the only one)")
+    d.add_argument("--frames", type=int, default=10, metavar="N", help="median of the first N frames (default 10)")
+    d.add_argument("--origin", default="0,0", metavar="X,Y",
+                   help="stage metres of the floor point below the camera; write --origin=-0.5,-4 for a minus")
+    d.add_argument("--heading", type=float, default=0.0, metavar="DEG", help="the stage's y axis from the view's")
+    d.add_argument("--max-error", type=float, default=0.05, metavar="M",
+                   help="refuse a floor whose RMS reprojection error exceeds M metres (default 0.05)")
+    d.add_argument("--out", type=Path, default=None, metavar="FILE.toml",
+                   help=f"where to write it (default: {DEFAULT_DEPTH_NAME} next to --config)")
+    d.add_argument("--config", type=Path, default=None, help="the installation config it is for")
+    d.add_argument("--show", action="store_true", help="show the fit in a window and ask to accept it")
+    d.add_argument("--force", action="store_true", help="overwrite --out if it exists")
+    d.set_defaults(func=cmd_calibrate_depth)
+
+
+def cmd_calibrate_depth(args: argparse.Namespace) -> int:
+    import warnings
+
+    import numpy as np
+
+    from interaction.depth_calibration import DepthCalibrationError, calibrate_depth, fit_floor
+    from sensors.base import DepthImage
+    from sensors.recording_info import describe_recording, iter_payloads, select_channel
+
+    out = _out_path(args, DEFAULT_DEPTH_NAME)
+    if args.frames < 1:
+        raise _usage(f"--frames: expected a whole number ≥ 1, got {args.frames}")
+    if not args.max_error > 0:
+        raise _usage(f"--max-error: expected metres > 0, got {args.max_error}")
+    origin = _pair(args.origin, "--origin")
+    info = describe_recording(args.recording)
+    depth_channels = [c for c in info.sensor_channels if c.kind == "depth"]
+    if not args.channel and len(depth_channels) == 1:
+        channel = depth_channels[0]
+    else:
+        channel = select_channel(info, args.channel or None)
+    if channel.kind != "depth":
+        raise _usage(f"{args.recording}: channel {channel.topic!r} holds {channel.kind}, expected depth frames")
+    images: list[DepthImage] = []
+    for _, _, payload in iter_payloads(args.recording, channel.topic):
+        if isinstance(payload, DepthImage):
+            if images and payload.depth_mm.shape != images[0].depth_mm.shape:
+                raise _usage(f"{args.recording}: the depth frames change size")
+            images.append(payload)
+        if len(images) >= args.frames:
+            break
+    if not images:
+        raise _usage(f"{args.recording}: no depth frames in channel {channel.topic!r}")
+    stack = np.stack([im.depth_mm for im in images]).astype(np.float32)
+    stack[stack == 0] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN pixels: no data in any frame
+        median = np.nan_to_num(np.nanmedian(stack, axis=0)).astype(np.uint16)
+    first = images[0]
+    intrinsics = (first.fx, first.fy, first.cx, first.cy)
+    try:
+        fit = fit_floor(median, intrinsics)
+    except DepthCalibrationError as e:
+        raise _usage(f"{args.recording}: {e}") from None
+    print(f"jostle: {fit.describe()} (median of {len(images)} frames)")
+    if fit.rms_m > args.max_error:
+        raise _usage(f"calibration refused: the floor's reprojection error {fit.rms_m:.3f} m exceeds --max-error "
+                     f"{args.max_error:g} m; record the stage empty (nobody, nothing moved onto it), with more floor "
+                     "in view (tilt the camera down), or raise --max-error if the camera is far from the stage")
+    if fit.inliers < 0.2 * fit.valid:
+        raise _usage(f"calibration refused: only {fit.inliers} of {fit.valid} pixels lie on the floor; tilt the camera "
+                     "so the floor fills at least a fifth of the view, and record the stage empty")
+    calibration = calibrate_depth(fit, origin, args.heading, first.size)
+    if args.show and not _accept_in_window(median, intrinsics, fit):
+        raise _usage("calibration refused in the window; nothing written")
+    calibration.save(out)
+    print(f"jostle: camera at stage ({', '.join(f'{v:.3f}' for v in calibration.translation)}) m")
+    print(f"jostle: calibration: {out}")
+    return 0
+
+
+def _accept_in_window(depth_mm: np.ndarray, intrinsics: tuple[float, float, float, float], fit: Any) -> bool:
+    """Show the depth with the floor's pixels tinted green; True on Enter/space, False on Esc."""
+    import cv2
+    import numpy as np
+
+    from interaction.depth_calibration import camera_points
+
+    pts, vu = camera_points(depth_mm, intrinsics)
+    grey = cv2.normalize(depth_mm, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)  # type: ignore[call-overload]
+    img = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
+    on = np.abs(pts @ np.array(fit.plane[:3]) + fit.plane[3]) < 0.05
+    img[vu[on, 0], vu[on, 1]] = (img[vu[on, 0], vu[on, 1]] // 2 + np.array([0, 127, 0], np.uint8))
+    cv2.putText(img, "floor: Enter accepts, Esc refuses", (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 255), 1)
+    title = "jostle calibrate depth"
+    try:
+        cv2.imshow(title, img)
+        while True:
+            key = cv2.waitKey(100) & 0xFF
+            if key in (13, 10, 32):
+                return True
+            if key == 27 or cv2.getWindowProperty(title, cv2.WND_PROP_VISIBLE) < 1:
+                return False
+    finally:
+        cv2.destroyAllWindows()

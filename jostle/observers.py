@@ -53,10 +53,27 @@ def _build_pads(config: Any, calibration: Path | None, sensor: str) -> Observer:
     return PadsObserver(config, sensor)
 
 
+def _depth_config() -> type:
+    from interaction.depth import DepthObserverConfig
+
+    return DepthObserverConfig
+
+
+def _build_depth(config: Any, calibration: Path | None, sensor: str) -> Observer:
+    from interaction.depth import DepthObserver, DepthObserverConfig
+    from interaction.depth_calibration import DepthCalibration
+
+    if not isinstance(config, DepthObserverConfig) or calibration is None:
+        raise TypeError("depth observer: expected a DepthObserverConfig and a calibration file")
+    return DepthObserver(config, DepthCalibration.load(calibration))
+
+
 def observer_types() -> dict[str, ObserverType]:
     """The table (built on call: the config classes live in modules that import OpenCV)."""
     return {
         "webcam": ObserverType(_webcam_config(), _build_webcam, True,
                                "silhouette, optical flow (and pose keypoints) → contactors, from colour frames"),
+        "depth": ObserverType(_depth_config(), _build_depth, True,
+                              "depth frames → floor-grid people → head, hands, feet and body hull spheres"),
         "pads": ObserverType(_pads_config(), _build_pads, False, "force pads → one impulse per hit"),
     }

@@ -1,0 +1,280 @@
+"""``jostle bench interaction``: the observers against virtual-performer ground truth.
+
+(It lives in jostle/ because it records with :mod:`jostle.synth`; interaction/ may not import it.)
+
+Records crossings of 1 to 4 people (``jostle.synth``: webcam 640×480, OAK depth 640×400, ground
+truth) into a temporary folder, calibrates the depth camera from its own empty-stage frames
+(floor by RANSAC, the camera's foot point as the user would give it), runs the webcam observer
+(silhouette and flow; then with pose on the one-person recording) and the depth observer over
+every frame, fuses them, and scores against the truth:
+
+- ``*_fps``: frames per second of ``observe()`` alone (decoding excluded), OpenCV on one thread.
+- ``latency_ms_p99``: frame in → contactors out (``observe`` plus the fusion), over all frames.
+- ``depth_extremity_error_m_p95``: each depth hand (foot) contactor to the nearest true wrist
+  (foot centre: the ankle–toe midpoint) of anyone on the stage, metres.
+- ``webcam_extremity_error_m_p95``: the same for the webcam's hand/foot contactors in (x, z), the
+  truth carried onto the webcam's stage plane through its own camera (what a webcam can know).
+- ``velocity_direction_error_deg_p95``: depth hand/foot contactors whose true joint moves faster
+  than 0.5 m/s: the angle between the contactor's velocity and the joint's.
+- ``person_count_accuracy``: depth frames (after learning) whose count of people is the count of
+  people whose pelvis is inside the depth camera's view; frames with someone within 0.4 m of the
+  view's edge are ambiguous and not counted (``person_count_frames`` says how many were).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+TARGETS: dict[str, tuple[str, float]] = {
+    "webcam_fps": (">=", 120.0), "webcam_pose_fps": (">=", 0.0), "depth_fps": (">=", 200.0),
+    "latency_ms_p99": ("<", 10.0), "depth_extremity_error_m_p95": ("<=", 0.05),
+    "webcam_extremity_error_m_p95": ("<=", 0.10), "velocity_direction_error_deg_p95": ("<=", 15.0),
+    "person_count_accuracy": (">=", 0.99),
+}
+_FEET = (("right_ankle", "right_toe"), ("left_ankle", "left_toe"))
+_HANDS = (("right_wrist",), ("left_wrist",))
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--quick", action="store_true", help="small and short: 320×240 / 320×200, 1 and 2 people")
+    parser.add_argument("--people", default="1,2,3,4", help="the crossings to record (default 1,2,3,4)")
+    parser.add_argument("--duration", type=float, default=5.0, metavar="S", help="seconds per recording (default 5)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--keep", type=Path, default=None, metavar="DIR", help="record into DIR and keep the files (recordings already there are reused)")
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    import cv2
+
+    cv2.setNumThreads(1)
+    try:
+        counts = [int(v) for v in str(args.people).split(",") if v.strip()]
+    except ValueError:
+        counts = []
+    if not counts or not all(1 <= n <= 4 for n in counts):
+        raise ValueError(f"--people: expected numbers 1..4 like 1,2,3,4, got {args.people!r}")
+    if args.quick:
+        counts = [n for n in counts if n <= 2][:2] or [1]
+    size, depth_size = ((320, 240), (320, 200)) if args.quick else ((640, 480), (640, 400))
+    duration = min(args.duration, 3.5) if args.quick else args.duration
+    with tempfile.TemporaryDirectory(prefix="jostle-bench-") as tmp:
+        folder = args.keep if args.keep is not None else Path(tmp)
+        folder.mkdir(parents=True, exist_ok=True)
+        scores = _Scores()
+        for n in counts:
+            path = folder / f"crossing{n}.mcap"
+            if not (args.keep is not None and path.is_file()):  # --keep: a folder's recordings are reused
+                _record(path, n, size, depth_size, duration, args.seed + n)
+            _score_recording(path, scores, pose=False)
+            if n == 1:
+                _score_recording(path, scores, pose=True)
+    figures = scores.figures()
+    figures["recordings"] = ",".join(f"{n} people" for n in counts)
+    figures["sizes"] = f"webcam {size[0]}x{size[1]}, depth {depth_size[0]}x{depth_size[1]}"
+    figures["targets_met"] = {k: _met(figures.get(k), *TARGETS[k]) for k in TARGETS if k != "webcam_pose_fps"}
+    return figures
+
+
+# ---------------------------------------------------------------- recording
+
+
+def _record(path: Path, people: int, size: tuple[int, int], depth_size: tuple[int, int], duration: float,
+            seed: int) -> None:
+    from jostle.synth.config import DepthCameraConfig, PerformerConfig
+    from jostle.synth.session import SynthSensors, record_performance
+
+    config = PerformerConfig(clips=("walk", "punch"), width=size[0], height=size[1], fps=15.0,
+                             duration_s=duration, seed=seed, empty_s=1.0, people=people, route="crossing")
+    oak = DepthCameraConfig(width=depth_size[0], height=depth_size[1], fps=15.0, color=False)
+    record_performance(config, SynthSensors(webcam=True, oak=oak, truth=True), path)
+
+
+# ---------------------------------------------------------------- scoring
+
+
+class _Scores:
+    def __init__(self) -> None:
+        self.times: dict[str, list[float]] = {"webcam": [], "webcam_pose": [], "depth": []}
+        self.latency: list[float] = []
+        self.latency_depth: list[float] = []
+        self.depth_error: list[float] = []
+        self.webcam_error: list[float] = []
+        self.angle: list[float] = []
+        self.count_right = 0
+        self.count_frames = 0
+
+    def figures(self) -> dict[str, Any]:
+        def fps(k: str) -> float | None:
+            t = self.times[k]
+            return round(len(t) / sum(t), 1) if t else None
+
+        def p(v: list[float], q: float, digits: int) -> float | None:
+            return round(float(np.percentile(v, q)), digits) if v else None
+
+        return {
+            "webcam_fps": fps("webcam"), "webcam_pose_fps": fps("webcam_pose"), "depth_fps": fps("depth"),
+            "latency_ms_p99": p(self.latency, 99, 2),
+            "latency_ms_p99_depth": p(self.latency_depth, 99, 2),
+            "latency_ms_p99_webcam": p([t * 1000 for t in self.times["webcam"]], 99, 2),
+            "depth_extremity_error_m_p95": p(self.depth_error, 95, 3),
+            "depth_extremity_error_m_p50": p(self.depth_error, 50, 3),
+            "webcam_extremity_error_m_p95": p(self.webcam_error, 95, 3),
+            "webcam_extremity_error_m_p50": p(self.webcam_error, 50, 3),
+            "velocity_direction_error_deg_p95": p(self.angle, 95, 1),
+            "velocity_direction_error_deg_p50": p(self.angle, 50, 1),
+            "velocity_samples": len(self.angle),
+            "person_count_accuracy": round(self.count_right / self.count_frames, 4) if self.count_frames else None,
+            "person_count_frames": self.count_frames,
+        }
+
+
+def _score_recording(path: Path, scores: _Scores, *, pose: bool) -> None:
+    """Run the observers over one synthetic recording (channels webcam, oak, truth) and add up the scores."""
+    from interaction.calibration import Calibration
+    from interaction.depth import DepthObserver, DepthObserverConfig
+    from interaction.fusion import SensorFusion
+    from interaction.types import BodyObservation
+    from interaction.webcam import WebcamObserver, WebcamObserverConfig
+    from jostle.synth.truth import read_cameras, read_truth
+    from sensors.base import DepthImage, Frame
+    from sensors.recording_info import iter_payloads
+
+    cameras = read_cameras(path)
+    truth = {round(f.t * 1000): f for f in read_truth(path)}
+    webcam_cam = cameras["webcam"]
+    homography = webcam_cam.plane_homography(0.0)  # the exact calibration `jostle synth` writes beside it
+    calibration = Calibration(tuple(float(v) for v in homography.reshape(-1)), 0.0, 1.0,
+                              (webcam_cam.width, webcam_cam.height))
+    webcam = WebcamObserver(WebcamObserverConfig(pose=pose), calibration)
+    for t_ns, seq, payload in iter_payloads(path, "webcam"):
+        frame = Frame("webcam", t_ns / 1e9, seq, payload)
+        t0 = time.perf_counter()
+        obs = webcam.observe(frame)
+        took = time.perf_counter() - t0
+        scores.times["webcam_pose" if pose else "webcam"].append(took)
+        if not pose:
+            scores.latency.append(took * 1000)
+        if not pose and not webcam.learning:
+            _webcam_errors(obs, truth.get(round(frame.t * 1000)), webcam_cam, homography, scores)
+    if pose:
+        return
+    depth_frames = [(t_ns, seq, p) for t_ns, seq, p in iter_payloads(path, "oak") if isinstance(p, DepthImage)]
+    depth = DepthObserver(DepthObserverConfig(), _depth_calibration([p for _, _, p in depth_frames[:8]],
+                                                                    cameras["oak"].position))
+    fusion = SensorFusion()
+    for t_ns, seq, payload in depth_frames:
+        frame = Frame("oak", t_ns / 1e9, seq, payload)
+        t0 = time.perf_counter()
+        obs = depth.observe(frame)
+        t1 = time.perf_counter()
+        fusion.merge(frame.t, [BodyObservation(frame.t), obs])
+        scores.times["depth"].append(t1 - t0)
+        scores.latency.append((time.perf_counter() - t0) * 1000)
+        scores.latency_depth.append(scores.latency[-1])
+        frame_truth = truth.get(round(frame.t * 1000))
+        if depth.learning or frame_truth is None:
+            continue
+        _depth_errors(obs, frame_truth, scores)
+        expected = visible_people(frame_truth, cameras["oak"])
+        if expected is not None:
+            scores.count_frames += 1
+            scores.count_right += int(obs.people == expected)
+
+
+def _depth_calibration(images: list[Any], camera_position: tuple[float, float, float]) -> Any:
+    """The calibration a user would make: the floor from the first (empty) frames, the foot point given."""
+    import warnings
+
+    from interaction.depth_calibration import calibrate_depth, fit_floor
+
+    stack = np.stack([im.depth_mm for im in images]).astype(np.float32)
+    stack[stack == 0] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        median = np.nan_to_num(np.nanmedian(stack, axis=0)).astype(np.uint16)
+    im = images[0]
+    fit = fit_floor(median, (im.fx, im.fy, im.cx, im.cy))
+    return calibrate_depth(fit, (camera_position[0], camera_position[1]), 0.0, im.size)
+
+
+def _joint_sets(frame_truth: Any, part: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(position, velocity) of every true hand (wrist) or foot (ankle–toe middle) on the stage."""
+    from render.mocap import HUMANOID
+
+    names = _HANDS if part == "hand" else _FEET
+    out = []
+    for person in frame_truth.people:
+        if not person.present:
+            continue
+        for group in names:
+            idx = [HUMANOID.names.index(n) for n in group]
+            out.append((person.joints[idx].mean(axis=0), person.velocities[idx].mean(axis=0)))
+    return out
+
+
+def _depth_errors(obs: Any, frame_truth: Any, scores: _Scores) -> None:
+    for part in ("hand", "foot"):
+        joints = _joint_sets(frame_truth, part)
+        if not joints:
+            continue
+        pos = np.array([j[0] for j in joints])
+        for c in obs.contactors:
+            if c.part != part:
+                continue
+            d = np.linalg.norm(pos - np.array(c.position), axis=1)
+            k = int(np.argmin(d))
+            scores.depth_error.append(float(d[k]))
+            true_v, v = joints[k][1], np.array(c.velocity)
+            if np.linalg.norm(true_v) > 0.5 and np.linalg.norm(v) > 1e-9:
+                cos = float(v @ true_v / (np.linalg.norm(v) * np.linalg.norm(true_v)))
+                scores.angle.append(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
+
+
+def _webcam_errors(obs: Any, frame_truth: Any, camera: Any, homography: np.ndarray, scores: _Scores) -> None:
+    from jostle.synth.camera import apply_homography
+
+    if frame_truth is None:
+        return
+    for part in ("hand", "foot"):
+        joints = _joint_sets(frame_truth, part)
+        if not joints:
+            continue
+        on_plane = apply_homography(homography, camera.project(np.array([j[0] for j in joints])))
+        for c in obs.contactors:
+            if c.part == part:
+                d = np.linalg.norm(on_plane - np.array([c.position[0], c.position[2]]), axis=1)
+                scores.webcam_error.append(float(d.min()))
+
+
+def visible_people(frame_truth: Any, camera: Any) -> int | None:
+    """How many pelvises are inside the view; None when one is within 0.4 m of its edge (ambiguous)."""
+    from render.mocap import HUMANOID
+
+    root = HUMANOID.names.index("root")
+    seen = 0
+    for person in frame_truth.people:
+        if not person.present:
+            continue
+        p = person.joints[root]
+        depth = float(camera.to_camera(p)[2])
+        margin = 0.4 * camera.focal_px / max(depth, 0.1)
+        u, v = camera.project(p)
+        inside = 0 <= u < camera.width and 0 <= v < camera.height
+        near_edge = -margin <= u < camera.width + margin and not (margin <= u < camera.width - margin)
+        if near_edge:
+            return None
+        seen += int(inside)
+    return seen
+
+
+def _met(value: Any, op: str, target: float) -> bool | None:
+    if not isinstance(value, int | float):
+        return None
+    return {"<": value < target, "<=": value <= target, ">=": value >= target}[op]
