@@ -253,11 +253,13 @@ def decode_pads(data: bytes) -> PadSample:
     if not isinstance(body, dict) or not isinstance(body.get("newtons"), list) or not isinstance(body.get("raw"), list):
         raise CodecError('pad sample: expected {"newtons": [...], "raw": [...]}')
     newtons, raw = body["newtons"], body["raw"]
-    if not all(isinstance(x, int | float) and not isinstance(x, bool) for x in newtons):
+    # json.loads gives exactly int, float, bool, str, list, dict or None: compare types, not isinstance
+    # (bool is an int subclass and must be refused)
+    if not all(type(x) is float or type(x) is int for x in newtons):
         raise CodecError("pad sample: newtons must be numbers")
-    if not all(isinstance(x, int) and not isinstance(x, bool) for x in raw):
+    if not all(type(x) is int for x in raw):
         raise CodecError("pad sample: raw must be integers")
-    return PadSample(newtons=tuple(float(x) for x in newtons), raw=tuple(int(x) for x in raw))
+    return PadSample(newtons=tuple(map(float, newtons)), raw=tuple(raw))
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,5 +1,9 @@
 """What a recording holds (``jostle info``), and its frames one by one (what ``Replay`` plays).
 
+A complete file is described from its summary section and message indexes
+(:mod:`sensors.recording_index`); a cut or damaged one, or one written without indexes, by reading
+every record (:class:`sensors.recording_stream.RecordingStream`).
+
 Damage is reported with ``warnings.warn`` and the category :class:`RecordingDamaged` (a
 ``UserWarning``): the frames before the damage are kept, the user is told once which file broke,
 at which byte and at which time, and tests can catch it with ``pytest.warns``.
@@ -22,7 +26,8 @@ from sensors.base import (
     SensorUnavailable,
 )
 from sensors.mcap_codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
-from sensors.recording_stream import RecordingStream
+from sensors.recording_index import ChunkRef, ChunkUnreadable, RecordingIndex, read_chunk, read_index
+from sensors.recording_stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
 
 FRAME_KINDS = ("color", "depth", "pads")
 METADATA_NAME = "jostle"
@@ -78,6 +83,7 @@ class RecordingInfo:
     first_ns: int = 0  # first sensor message time, ns (Replay's time origin)
     last_ns: int = 0
     complete: bool = True  # footer and closing magic present
+    checked: bool = True  # every record was read (False: described from the summary, chunks not read)
 
     @property
     def sensor_channels(self) -> tuple[ChannelInfo, ...]:
@@ -94,13 +100,67 @@ class _Tally:
     size: tuple[int, int] | None = None
     pads: int | None = None
 
+    def size_from(self, payload: Payload | None) -> None:
+        if isinstance(payload, ColorImage | DepthImage):
+            self.size = payload.size
+        elif isinstance(payload, PadSample):
+            self.pads = len(payload.newtons)
 
-def describe_recording(path: Path) -> RecordingInfo:
-    """Read the whole recording once (decoding only the first frame of each sensor, for its size).
 
-    Raises SensorUnavailable if the file is missing, RecordingCorrupt if it is not MCAP. Damage
-    does not raise: ``truncated`` is set and ``damage`` says where.
+def describe_recording(path: Path, *, verify: bool = False) -> RecordingInfo:
+    """What a recording holds. Raises SensorUnavailable if the file is missing, RecordingCorrupt if
+    it is not MCAP. Damage does not raise: ``truncated`` is set and ``damage`` says where.
+
+    A complete file is described from its summary and message indexes (decompressing only the chunk
+    holding each sensor's first frame, for its size); chunk contents are then not checked
+    (``checked`` is False). ``verify=True``, or a file without a usable summary, reads every record.
     """
+    path = Path(path)
+    size = check_recording_file(path)
+    if not verify:
+        with path.open("rb") as f:
+            index = read_index(f.fileno(), size)
+            if index is not None:
+                fd = f.fileno()
+                info = describe_indexed(path, index, lambda ref: read_chunk(fd, ref, index.channels, index.schemas))
+                if info is not None:
+                    return info
+    return describe_scan(path)
+
+
+def describe_indexed(
+    path: Path, index: RecordingIndex, chunk: Callable[[ChunkRef], list[RecordedMessage]]
+) -> RecordingInfo | None:
+    """Describe a recording from its index; ``chunk`` reads one chunk (for the first frames' sizes).
+    None if a chunk it needs cannot be read (the caller then walks the file to find the damage)."""
+    tallies: dict[int, _Tally] = {}
+    for cid, stats in sorted(index.channel_stats.items()):
+        channel = index.channels[cid]
+        schema = index.schemas.get(channel.schema_id) if channel.schema_id else None
+        tallies[cid] = _Tally(classify_channel(channel, schema), schema.name if schema else "", stats.count,
+                              stats.first_ns, stats.last_ns)
+    for cid, t in tallies.items():
+        if t.role.role != "frame":
+            continue
+        ref = next(c for c in index.chunks if cid in c.channel_ids)
+        try:
+            messages = chunk(ref)
+        except ChunkUnreadable:
+            return None
+        msg = next((m for m in messages if m.channel.id == cid), None)
+        if msg is None:
+            return None  # the message index promised one
+        try:
+            t.size_from(PayloadAssembler().feed(t.role, msg.channel, msg.schema, msg.sequence, msg.log_time_ns,
+                                                msg.data))
+        except CodecError:  # left for Replay to report, with the frames before it
+            pass
+    return _info(path, index.size_bytes, tallies, {cid: index.channels[cid].topic for cid in tallies},
+                 index.metadata, damage=None, complete=True, checked=False)
+
+
+def describe_scan(path: Path) -> RecordingInfo:
+    """Read the whole recording once (decoding only the first frame of each sensor, for its size)."""
     stream = RecordingStream(Path(path))
     tallies: dict[int, _Tally] = {}
     assemblers: dict[str, PayloadAssembler] = {}
@@ -122,31 +182,34 @@ def describe_recording(path: Path) -> RecordingInfo:
                 payload = None
             if t.role.role == "frame":
                 sized.add(sensor)
-            if isinstance(payload, ColorImage | DepthImage):
-                t.size = payload.size
-            elif isinstance(payload, PadSample):
-                t.pads = len(payload.newtons)
+            t.size_from(payload)
+    return _info(stream.path, stream.size_bytes, dict(sorted(tallies.items())),
+                 {cid: stream.channels[cid].topic for cid in tallies}, stream.metadata, damage=stream.damage,
+                 complete=stream.complete, checked=True)
+
+
+def _info(path: Path, size_bytes: int, tallies: dict[int, _Tally], topics: dict[int, str],
+          records: dict[str, dict[str, str]], *, damage: RecordingDamage | None, complete: bool,
+          checked: bool) -> RecordingInfo:
     channels = []
-    for cid in sorted(tallies):
-        t = tallies[cid]
-        topic = stream.channels[cid].topic
+    for cid, t in tallies.items():
         kind = t.role.kind if t.role.role == "frame" and t.role.kind in FRAME_KINDS else t.role.role
         span = (t.last_ns - t.first_ns) / 1e9
         rate = (t.count - 1) / span if t.count > 1 and span > 0 else 0.0
         w, h = t.size if t.size else (None, None)
-        channels.append(ChannelInfo(topic, kind, t.schema_name, t.count, t.first_ns, t.last_ns, rate, w, h, t.pads))
+        channels.append(ChannelInfo(topics[cid], kind, t.schema_name, t.count, t.first_ns, t.last_ns, rate, w, h,
+                                    t.pads))
     sensors = [c for c in channels if c.is_sensor] or channels
     first = min((c.first_ns for c in sensors), default=0)
     last = max((c.last_ns for c in sensors), default=0)
     metadata: dict[str, str] = {}
-    for name, record in stream.metadata.items():
+    for name, record in records.items():
         for key, value in record.items():
             metadata[key if name == METADATA_NAME else f"{name}.{key}"] = value
-    damage = stream.damage.describe(stream.path) if stream.damage else ""
     return RecordingInfo(
-        path=stream.path, channels=tuple(channels), duration=(last - first) / 1e9, size_bytes=stream.size_bytes,
-        metadata=metadata, truncated=stream.damage is not None, damage=damage, first_ns=first, last_ns=last,
-        complete=stream.complete,
+        path=path, channels=tuple(channels), duration=(last - first) / 1e9, size_bytes=size_bytes,
+        metadata=metadata, truncated=damage is not None, damage=damage.describe(path) if damage else "",
+        first_ns=first, last_ns=last, complete=complete, checked=checked,
     )
 
 
@@ -177,28 +240,18 @@ def iter_payloads(
     Stops at the first damage (structural or an undecodable message) and calls ``on_damage`` once
     with a one-line description.
     """
-    stream = RecordingStream(Path(path))
-    assembler = PayloadAssembler()
-    last_ns: int | None = None
-    count = 0
-    for msg in stream.messages():
-        role = classify_channel(msg.channel, msg.schema)
-        if role.sensor != channel or role.role not in ("frame", "calibration", "aligned_color"):
-            continue
-        try:
-            payload = assembler.feed(role, msg.channel, msg.schema, msg.sequence, msg.log_time_ns, msg.data)
-        except CodecError as e:
-            if on_damage is not None:
-                kept = f"the last good frame at t={last_ns / 1e9:.3f} s" if last_ns is not None else "no frame before it"
-                on_damage(f"{stream.path}: message on {msg.channel.topic!r} in the record at byte {msg.offset} "
-                          f"cannot be decoded ({e}); {count} frames kept, {kept}")
-            return
-        if payload is not None:
-            last_ns = msg.log_time_ns
-            count += 1
-            yield msg.log_time_ns, msg.sequence, payload
-    if stream.damage is not None and on_damage is not None:
-        on_damage(stream.damage.describe(stream.path))
+    from sensors.replay_source import Damaged, open_recording, sensor_items
+
+    recording = open_recording(Path(path))
+    try:
+        for item in sensor_items(recording, channel):
+            if isinstance(item, Damaged):
+                if on_damage is not None:
+                    on_damage(item.text)
+                return
+            yield item
+    finally:
+        recording.release()
 
 
 def iter_frames(path: Path, channel: str | None = None) -> Iterator[Frame]:
@@ -223,5 +276,6 @@ def format_info(info: RecordingInfo) -> str:
         shape = f"{c.width}x{c.height}" if c.width is not None else (f"{c.pads} pads" if c.pads is not None else "")
         lines.append(f"  {c.topic:<{width}}  {c.kind:<13} {c.schema_name:<26} {c.message_count:>7} msgs "
                      f"{c.rate_hz:7.2f} Hz  {shape:<9} t {c.first_t:.3f} to {c.last_t:.3f} s")
-    lines.append(f"status     {'DAMAGED: ' + info.damage if info.truncated else 'complete'}")
+    status = "complete" if info.checked else "complete (from its summary; chunk contents not read)"
+    lines.append(f"status     {'DAMAGED: ' + info.damage if info.truncated else status}")
     return "\n".join(lines)

@@ -4,6 +4,13 @@ At ``open()`` the replay notes ``clock.now()``; a recorded frame is due at
 ``recorded t − first t of the recording + that open time`` and ``read`` returns due frames one per
 call, oldest first. ``read`` never sleeps (``timeout`` is accepted and ignored) and returns None
 when nothing is due, so on a SimClock a replay is deterministic and runs as fast as the loop.
+
+Speed: every replay of one file in the process shares one reader
+(:func:`sensors.replay_source.open_recording`): a complete file is described from its summary, and
+each chunk is decompressed once for all its sensors. Each open replay decodes its frames in its
+own thread, at most :data:`LOOKAHEAD` frames ahead of ``read``; ``read`` waits for a frame that is
+due but not decoded yet (never returns None for it), so what a replay returns, and when, does not
+depend on how fast the machine is.
 "First t" is the earliest sensor message of the whole file, so several replays of one file on one
 clock stay in step. Times are kept in integer nanoseconds, so recording a replay again and
 replaying that gives the very same times.
@@ -20,7 +27,7 @@ seq by the number of sequence numbers in a pass, so both keep increasing.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import weakref
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -35,9 +42,12 @@ from sensors.base import (
     SensorStatus,
 )
 from sensors.clock import Clock
-from sensors.recording_info import ChannelInfo, describe_recording, iter_payloads, select_channel, warn_damage
+from sensors.recording_info import ChannelInfo, select_channel, warn_damage
+from sensors.replay_source import END, PASS_END, Damaged, SensorFeed, SharedRecording, open_recording
 
 _DUE_TOLERANCE_S = 1e-9  # times are whole nanoseconds; the clock is a float
+# frames decoded ahead of the reader, per sensor: images ~0.5-1 MB each, pad samples tiny
+LOOKAHEAD = {"color": 8, "depth": 8, "pads": 128}
 
 
 @dataclass(frozen=True)
@@ -56,6 +66,11 @@ class ReplayConfig:
             raise ValueError(f"channel: expected a channel name (text), got {self.channel!r}")
         if not isinstance(self.loop, bool):
             raise ValueError(f"loop: expected true or false, got {self.loop!r}")
+
+
+def _stop_reading(feed: SensorFeed, recording: SharedRecording) -> None:
+    feed.stop()
+    recording.release()
 
 
 def _spec(name: str, info: ChannelInfo) -> SensorSpec:
@@ -85,7 +100,9 @@ class Replay:
         self._damage = ""
         self._state = SensorState.CLOSED
         self._frames = 0
-        self._payloads: Iterator[tuple[int, int, Payload]] | None = None
+        self._recording: SharedRecording | None = None
+        self._feed: SensorFeed | None = None
+        self._stop_reading: weakref.finalize | None = None
         self._next: tuple[int, int, Payload] | None = None
         self._t_open_ns = 0
         self._pass = 0
@@ -99,7 +116,12 @@ class Replay:
 
     def _load(self) -> tuple[ChannelInfo, SensorSpec]:
         if self._channel is None or self._spec is None:
-            info = describe_recording(self.path)
+            recording = self._recording or open_recording(self.path)
+            try:
+                info = recording.info
+            finally:
+                if recording is not self._recording:
+                    recording.release()
             channel = select_channel(info, self._channel_choice)
             if info.truncated:
                 self._report_damage(info.damage)
@@ -133,9 +155,22 @@ class Replay:
     # -------------------------------------------------------------- sensor
 
     def open(self) -> None:
+        """Find the channel (from the file's summary, or by reading the whole file if it has none)
+        and start decoding its frames ahead, in a thread of this replay's own."""
         if self._open:
             return
-        channel, _ = self._load()
+        recording = open_recording(self.path)
+        self._recording = recording
+        try:
+            channel, spec = self._load()
+            feed = SensorFeed(recording, channel.topic, loop=self._loop, lookahead=LOOKAHEAD[spec.kind])
+        except BaseException:
+            self._recording = None
+            recording.release()
+            raise
+        self._feed = feed
+        # close() runs this; so does the collector if a replay is dropped open (its thread then stops)
+        self._stop_reading = weakref.finalize(self, _stop_reading, feed, recording)
         self._topic = channel.topic
         self._t_open_ns = round(self._clock.now() * 1e9)
         self._pass = 0
@@ -144,23 +179,30 @@ class Replay:
         self._last_t_ns = None
         self._last_seq = None
         self._frames = 0
-        self._payloads = iter_payloads(self.path, self._topic, on_damage=self._report_damage)
         self._open = True
         self._state = SensorState.CONNECTED
         self._advance()
 
     def _advance(self) -> None:
-        """Fetch the next recorded frame (starting a new pass when looping), or mark the end."""
-        nxt = next(self._payloads, None) if self._payloads is not None else None
-        if nxt is None and self._loop and self._seq_first is not None:
-            self._pass += 1
-            self._pass_seq_span += self._seq_last - self._seq_first + 1
-            self._seq_first = None
-            self._payloads = iter_payloads(self.path, self._topic, on_damage=self._report_damage)
-            nxt = next(self._payloads, None)
-        self._next = nxt
-        if nxt is None:
-            self._state = SensorState.ENDED
+        """Take the next decoded frame (counting passes when looping), or mark the end."""
+        if self._feed is None:
+            return
+        while True:
+            item = self._feed.get()
+            if isinstance(item, Damaged):
+                self._report_damage(item.text)
+            elif item is PASS_END:
+                first = self._seq_first if self._seq_first is not None else self._seq_last
+                self._pass += 1
+                self._pass_seq_span += self._seq_last - first + 1
+                self._seq_first = None
+            elif item is END:
+                self._next = None
+                self._state = SensorState.ENDED
+                return
+            elif isinstance(item, tuple):
+                self._next = item
+                return
 
     def read(self, timeout: float) -> Frame | None:
         """The oldest due frame, or None. Never waits: ``timeout`` is not needed on recorded time."""
@@ -189,9 +231,11 @@ class Replay:
         return frame
 
     def close(self) -> None:
-        if self._payloads is not None and hasattr(self._payloads, "close"):
-            self._payloads.close()
-        self._payloads = None
+        if self._stop_reading is not None:
+            self._stop_reading()
+            self._stop_reading = None
+        self._feed = None
+        self._recording = None
         self._next = None
         self._open = False
         self._state = SensorState.CLOSED
