@@ -1,27 +1,30 @@
-"""The renderer: a WorldSnapshot (+ the people seen) → a BGR frame, headless through EGL or in a window.
+"""The renderer: a WorldSnapshot (+ the people seen) → a BGR frame, headless through EGL, in a window,
+or full screen (kiosk).
 
-Each character is ~18 capsules (64 triangles each, instanced in one draw call) posed by its
-keyframe set at ``query_from_snapshot``, placed in its rigid body's frame (position = centre of
-mass, orientation) and scaled to its height; coloured per character (shirt hue by its place in the
-snapshot) and flashing red while a person pushes it. The people are translucent capsules/spheres
-(their contactors) and, when given, a silhouette image blended over the frame. A blob shadow
-under each figure, a floor with a metre grid and the playable stage marked, a back wall. The
-camera stands on the audience side looking +y at the stage (z up), framing x ∈ [−3, 3].
+Each character is 18 capsules posed by its keyframe set at its point of Q, placed in its rigid
+body's frame (position = centre of mass, orientation) and scaled to its height; shirts coloured per
+character, tinted red while pushed, with a flash where the contact lands. Capsules are impostors
+(one quad each, ray-cast per fragment), all characters in one instanced draw. Under each figure a
+soft shadow and a contact shadow under every limb near the floor. The people: their contactors as
+translucent capsules and/or their silhouette drawn on the calibrated stage plane. The stage (floor
+with grid, playable area, back wall) is drawn once per camera and copied; one upload per kind of
+instance per frame; read back as GL_RGBA. Rendering never steps the sim: it draws the snapshot given.
 """
 
 from __future__ import annotations
 
-import ctypes
 import math
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from types import ModuleType
 
 import cv2
 import numpy as np
 
+from interaction.calibration import Calibration
 from interaction.types import BodyObservation
 from render import shaders
+from render.effects import FLASH_FLOATS, BehaviourFade, Flashes, Hud
 from render.glcontext import (
     Framebuffer,
     RendererUnavailable,
@@ -35,52 +38,45 @@ from render.glcontext import (
     uniform_matrix,
     upload,
 )
-from render.keyframes import KeyframeSet, query_from_snapshot
+from render.keyframes import KeyframeSet
+from render.overlays import Overlays
 from render.scene import (
+    BLOB_FLOATS,
     CAPSULE_FLOATS,
-    CAPSULES,
-    Camera,
+    SHADOW_FLOATS,
     body_rotations,
-    capsule_mesh,
-    figure_capsules,
+    contact_point,
+    contact_shadows,
     figure_colours,
     people_capsules,
+    posed_capsules,
     shadow_blobs,
 )
-from render.skeleton_pose import com_fraction
+from render.skeleton_pose import com_fraction as set_com_fraction
+from render.skeletons import figure_for
+from render.style import Camera, RenderStyle, rgb
 from sim.snapshot import CharacterSnapshot, WorldSnapshot
 
 __all__ = ["Renderer", "RendererUnavailable", "display_available"]
 
-_SHADOW_FLOATS = 7
-_STAGE = np.array(
-    [  # floor (z = 0) and back wall (y = 8) as two quads
-        (-15, -9, 0),
-        (15, -9, 0),
-        (15, 8, 0),
-        (-15, -9, 0),
-        (15, 8, 0),
-        (-15, 8, 0),
-        (-15, 8, 0),
-        (15, 8, 0),
-        (15, 8, 10),
-        (-15, 8, 0),
-        (15, 8, 10),
-        (-15, 8, 10),
-    ],
+_STAGE = np.array(  # floor (z = 0) and back wall (y = 8) as two quads
+    [(-15, -9, 0), (15, -9, 0), (15, 8, 0), (-15, -9, 0), (15, 8, 0), (-15, 8, 0),
+     (-15, 8, 0), (15, 8, 0), (15, 8, 10), (-15, 8, 0), (15, 8, 10), (-15, 8, 10)],
     dtype=np.float32,
 )
 _QUAD = np.array([(-1, -1), (1, -1), (-1, 1), (1, 1)], dtype=np.float32)  # triangle strip
+Sets = Mapping[str, KeyframeSet] | KeyframeSet
 
 
 class Renderer:
-    """Draws snapshots into (H, W, 3) uint8 BGR frames. ``headless=False`` opens a window (needs a display;
-    ``draw`` then also shows each frame there — a plain window for now, the kiosk comes later).
+    """Draws snapshots into (H, W, 3) uint8 BGR frames.
 
-    ``samples``: multisample anti-aliasing, 0 = off; by default 0 headless (on llvmpipe 4× costs 2.5–3×
-    the frame time, measured) and 4 in a window. ``com_fraction``: height of the sim body's centre
-    of mass above its base as a fraction of its height (``CharacterSpec.com_height / height``), so the
-    figure's feet meet the floor. ``flash_newtons``: a push of this force gives a full red flash.
+    ``headless`` draws off screen (EGL); otherwise a window opens (``fullscreen``: the whole screen,
+    cursor hidden — the kiosk) and ``draw`` also shows each frame there, letterboxed.
+    ``style``: camera, colours and what is drawn (``render.style``); ``camera``/``samples``/
+    ``flash_newtons`` override it. ``com_fraction``: height of the sim body's centre of mass above its
+    base over its height (``CharacterSpec.com_height / height``), so the figures' feet meet the floor;
+    one for all, or by character name or kind (key ``"*"`` for the rest).
     """
 
     def __init__(
@@ -89,87 +85,83 @@ class Renderer:
         height: int = 720,
         *,
         headless: bool = True,
+        fullscreen: bool = False,
         samples: int | None = None,
         camera: Camera | None = None,
+        style: RenderStyle | None = None,
         stage_x: tuple[float, float] = (-3.0, 3.0),
-        com_fraction: float = 0.5,
-        flash_newtons: float = 150.0,
+        com_fraction: float | Mapping[str, float] = 0.5,
+        flash_newtons: float | None = None,
     ) -> None:
         for name, v in (("width", width), ("height", height)):
             if not isinstance(v, int) or v <= 0 or v > 8192:
                 raise ValueError(f"{name}: expected a pixel count 1..8192, got {v!r}")
+        self.style = style or RenderStyle()
+        look = self.style.look
         if samples is None:
-            samples = 0 if headless else 4
+            samples = look.samples if look.samples >= 0 else (0 if headless else 4)
         if samples not in (0, 2, 4, 8):
             raise ValueError(f"samples: expected 0, 2, 4 or 8, got {samples!r}")
-        if not 0.0 < com_fraction < 1.0:
-            raise ValueError(f"com_fraction: expected a fraction in (0, 1), got {com_fraction!r}")
+        fractions = com_fraction.values() if isinstance(com_fraction, Mapping) else [com_fraction]
+        if not all(0.0 < f < 1.0 for f in fractions):
+            raise ValueError(f"com_fraction: expected fractions in (0, 1), got {com_fraction!r}")
         self.width, self.height, self.headless = width, height, headless
-        self.camera = camera or Camera()
+        self.camera = camera or self.style.camera
         self.stage_x = stage_x
         self.com_fraction = com_fraction
-        self.flash_newtons = flash_newtons
+        self.flash_newtons = flash_newtons or look.flash_newtons
+        self.flashes = Flashes(look.flash_s)
+        self.fade = BehaviourFade()
+        self.hud = Hud(rgb("hud_text", self.style.colours.hud_text)) if look.hud else None
         tune_malloc()
-        self._window, self._gl = open_context(headless, width, height)
+        self._window, self._gl = open_context(headless, width, height, fullscreen and not headless)
         self._closed = False
         self._warned: set[str] = set()
         gl = self._gl
-        self._fb = Framebuffer(gl, width, height, samples)
-        self._background = Framebuffer(gl, width, height, samples)  # the stage, drawn once
+        # render_scale < 1 draws the scene smaller and scales it up (the HUD stays sharp): fragments are
+        # what a frame costs on llvmpipe, so a crowd can trade sharpness for frame rate
+        iw, ih = max(1, round(width * look.render_scale)), max(1, round(height * look.render_scale))
+        self._fb = Framebuffer(gl, iw, ih, samples)
+        self._background = Framebuffer(gl, iw, ih, samples)  # the stage, drawn once per camera
+        self._out = Framebuffer(gl, width, height, 0) if (iw, ih) != (width, height) else self._fb
         self._background_camera: Camera | None = None
         order = shaders.order_define(bgr=headless)  # a window shows RGB; read-back wants BGR
-        self._stage_prog = compile_program(gl, shaders.STAGE_VS, shaders.STAGE_FS, order)
-        self._shadow_prog = compile_program(gl, shaders.SHADOW_VS, shaders.SHADOW_FS, order)
-        self._capsule_prog = compile_program(gl, shaders.CAPSULE_VS, shaders.CAPSULE_FS, order)
-        self._overlay_prog = compile_program(gl, shaders.OVERLAY_VS, shaders.OVERLAY_FS, order)
+        p = {name: compile_program(gl, getattr(shaders, f"{name}_VS"), getattr(shaders, f"{name}_FS"), order)
+             for name in ("STAGE", "BLOB", "CONTACT", "CAPSULE", "SILHOUETTE", "FLASH", "OVERLAY")}
+        self._prog = p
         self._build_geometry(gl)
-        self._texture = gen(gl, gl.glGenTextures)
+        self._overlays = Overlays(gl, p, self._overlay_vao[0], self.style)
 
     # ------------------------------------------------------------------ set-up
 
-    def _build_geometry(self, gl: ModuleType) -> None:
-        verts, tris = capsule_mesh(8)
-        self._capsule_indices = int(tris.size)
-        self._mesh_vbo = gen(gl, gl.glGenBuffers)
-        upload(gl, gl.GL_ARRAY_BUFFER, self._mesh_vbo, verts, gl.GL_STATIC_DRAW)
-        self._mesh_ibo = gen(gl, gl.glGenBuffers)
-        self._capsule_vaos: list[
-            tuple[int, int]
-        ] = []  # (vao, instance vbo): opaque figures, translucent people
-        for _ in range(2):
-            vao = gen(gl, gl.glGenVertexArrays)
-            gl.glBindVertexArray(vao)
-            gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self._mesh_vbo)
-            attribute(gl, 0, 3, 4, 0, 0)
-            attribute(gl, 1, 1, 4, 3, 0)
-            gl.glBindBuffer(gl.GL_ELEMENT_ARRAY_BUFFER, self._mesh_ibo)  # element binding is VAO state
-            inst = gen(gl, gl.glGenBuffers)
-            gl.glBindBuffer(gl.GL_ARRAY_BUFFER, inst)
-            for loc, size, off in ((2, 3, 0), (3, 3, 3), (4, 1, 6), (5, 4, 7), (6, 1, 11)):
-                attribute(gl, loc, size, CAPSULE_FLOATS, off, 1)
-            self._capsule_vaos.append((vao, inst))
-        upload(gl, gl.GL_ELEMENT_ARRAY_BUFFER, self._mesh_ibo, tris, gl.GL_STATIC_DRAW)
+    def _instanced(self, gl: ModuleType, layout: Sequence[tuple[int, int, int]], stride: int) -> tuple[int, int]:
+        """A VAO drawing the unit quad once per instance of a buffer with ``layout`` (location, size, offset)."""
+        vao = gen(gl, gl.glGenVertexArrays)
+        gl.glBindVertexArray(vao)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self._quad_vbo)
+        attribute(gl, 0, 2, 2, 0, 0)
+        vbo = gen(gl, gl.glGenBuffers)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, vbo)
+        for loc, size, off in layout:
+            attribute(gl, loc, size, stride, off, 1)
+        gl.glBindVertexArray(0)
+        return vao, vbo
 
+    def _build_geometry(self, gl: ModuleType) -> None:
+        self._quad_vbo = gen(gl, gl.glGenBuffers)
+        upload(gl, gl.GL_ARRAY_BUFFER, self._quad_vbo, _QUAD, gl.GL_STATIC_DRAW)
+        capsule = ((1, 3, 0), (2, 3, 3), (3, 1, 6), (4, 4, 7), (5, 1, 11))
+        self._figures_vao = self._instanced(gl, capsule, CAPSULE_FLOATS)
+        self._people_vao = self._instanced(gl, capsule, CAPSULE_FLOATS)
+        self._contact_vao = self._instanced(gl, ((1, 3, 0), (2, 3, 3), (3, 1, 6), (4, 1, 7)), SHADOW_FLOATS)
+        self._blob_vao = self._instanced(gl, ((1, 2, 0), (2, 2, 2), (3, 2, 4), (4, 1, 6)), BLOB_FLOATS)
+        self._flash_vao = self._instanced(gl, ((1, 3, 0), (2, 1, 3), (3, 1, 4)), FLASH_FLOATS)
+        self._overlay_vao = self._instanced(gl, (), 1)
         self._stage_vao = gen(gl, gl.glGenVertexArrays)
         gl.glBindVertexArray(self._stage_vao)
         vbo = gen(gl, gl.glGenBuffers)
         upload(gl, gl.GL_ARRAY_BUFFER, vbo, _STAGE, gl.GL_STATIC_DRAW)
         attribute(gl, 0, 3, 3, 0, 0)
-
-        self._quad_vbo = gen(gl, gl.glGenBuffers)
-        upload(gl, gl.GL_ARRAY_BUFFER, self._quad_vbo, _QUAD, gl.GL_STATIC_DRAW)
-        self._shadow_vao = gen(gl, gl.glGenVertexArrays)
-        gl.glBindVertexArray(self._shadow_vao)
-        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self._quad_vbo)
-        attribute(gl, 0, 2, 2, 0, 0)
-        self._shadow_vbo = gen(gl, gl.glGenBuffers)
-        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self._shadow_vbo)
-        for loc, size, off in ((1, 2, 0), (2, 2, 2), (3, 2, 4), (4, 1, 6)):
-            attribute(gl, loc, size, _SHADOW_FLOATS, off, 1)
-        self._overlay_vao = gen(gl, gl.glGenVertexArrays)
-        gl.glBindVertexArray(self._overlay_vao)
-        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self._quad_vbo)
-        attribute(gl, 0, 2, 2, 0, 0)
         gl.glBindVertexArray(0)
 
     # ------------------------------------------------------------------ per frame
@@ -178,132 +170,172 @@ class Renderer:
         self,
         snapshot: WorldSnapshot,
         observation: BodyObservation | None,
-        keyframes: Mapping[str, KeyframeSet] | KeyframeSet,
+        keyframes: Sets,
         *,
         silhouette: np.ndarray | None = None,
+        silhouette_calibration: Calibration | None = None,
     ) -> np.ndarray:
         """The frame as a new (height, width, 3) uint8 BGR array.
 
-        ``keyframes``: one set for every character, or a mapping from character name to set (key
-        ``"*"`` for the rest). ``silhouette``: an (h, w) uint8 mask or (h, w, 3) BGR image in screen
-        layout, stretched over the frame and blended at 35 %.
+        ``keyframes``: one set for every character, or a mapping from character name or kind (the
+        spec's name, e.g. ``"critter"``) to set, key ``"*"`` for the rest. ``silhouette``: the people's mask (h, w) uint8 in camera pixels; with
+        ``silhouette_calibration`` (the webcam's image → stage homography) it is drawn where the people
+        stand, on the stage plane y = plane_y, behind characters in front of it; without, it is
+        stretched over the whole frame.
         """
         if self._closed:
             raise RuntimeError("render: draw() after close()")
         self._window.switch_to()
-        chars = snapshot.characters
-        a, b, radii, colours, blobs = self._figures(chars, keyframes)
-        people = people_capsules(observation)
         gl = self._gl
         vp = self.camera.view_projection(self.width, self.height)
         if self._background_camera != self.camera:
             self._draw_stage(vp)
-        self._fb.copy_from(self._background)
+        self._fb.copy_from(self._background, depth=False)
         self._fb.bind()
+        gl.glDepthMask(gl.GL_TRUE)
+        gl.glClear(gl.GL_DEPTH_BUFFER_BIT)  # nothing is ever behind the floor or the back wall
+        gl.glFlush()  # llvmpipe copies the stage in its threads while the figures are posed here
+        chars = snapshot.characters
+        a, b, r, instances = self._figures(snapshot.t, chars, keyframes)
         gl.glEnable(gl.GL_DEPTH_TEST)
         gl.glDepthFunc(gl.GL_LESS)
-
+        gl.glDisable(gl.GL_BLEND)
+        self._draw_quads("CAPSULE", self._figures_vao, instances, vp)
+        gl.glFlush()  # the figures are drawn while their shadows and contacts are worked out here
+        heights = np.array([c.height for c in chars], dtype=float)
+        contacts = {}
+        for i, c in enumerate(chars):
+            if c.contact_force_n > 0:
+                p = contact_point(a[i], b[i], r[i], observation)
+                contacts[i] = p if p is not None else np.array(c.position, dtype=float)
+        self.flashes.update(snapshot.t, chars, contacts, observation)
+        people = people_capsules(observation, self.style.colours, self.style.look.contactor_opacity)
         gl.glEnable(gl.GL_BLEND)
         gl.glBlendFunc(gl.GL_SRC_ALPHA, gl.GL_ONE_MINUS_SRC_ALPHA)
-        gl.glDepthMask(gl.GL_FALSE)
-        if len(blobs):
-            gl.glUseProgram(self._shadow_prog)
-            uniform_matrix(gl, self._shadow_prog, "view_proj", vp)
-            upload(gl, gl.GL_ARRAY_BUFFER, self._shadow_vbo, blobs.astype(np.float32), gl.GL_STREAM_DRAW)
-            gl.glBindVertexArray(self._shadow_vao)
-            gl.glDrawArraysInstanced(gl.GL_TRIANGLE_STRIP, 0, 4, len(blobs))
-
-        gl.glUseProgram(self._capsule_prog)
-        uniform_matrix(gl, self._capsule_prog, "view_proj", vp)
-        uniform(gl, self._capsule_prog, "eye", *self.camera.eye)
-        if len(a):
-            gl.glDisable(gl.GL_BLEND)
-            gl.glDepthMask(gl.GL_TRUE)
-            self._draw_capsules(0, np.concatenate([a, b, radii[:, None], colours], axis=1))
-        if len(people):
-            gl.glEnable(gl.GL_BLEND)
-            gl.glDepthMask(gl.GL_FALSE)
-            self._draw_capsules(1, people)
-        gl.glDepthMask(gl.GL_TRUE)
+        gl.glDepthMask(gl.GL_FALSE)  # shadows lie on the floor behind whatever stands on it
+        if self.style.look.shadows and len(chars):
+            self._draw_quads("BLOB", self._blob_vao, shadow_blobs(a, b, heights), vp)
+            self._draw_quads("CONTACT", self._contact_vao, contact_shadows(a, b, r, heights), vp)
         if silhouette is not None:
-            self._overlay(silhouette)
+            self._overlays.silhouette(silhouette, silhouette_calibration, vp)
+        self._draw_quads("CAPSULE", self._people_vao, people, vp)
+        gl.glDisable(gl.GL_DEPTH_TEST)
+        self._draw_quads("FLASH", self._flash_vao, self.flashes.instances(snapshot.t), vp)
+        if self._out is not self._fb:
+            self._out.scale_from(self._fb)
+            self._out.bind()
+        if self.hud is not None:
+            self.hud.update(chars, observation)
+            self._overlays.hud(self.hud, self.width, self.height)
+        gl.glDepthMask(gl.GL_TRUE)
         gl.glBindVertexArray(0)
         # headless shaders write BGRA (see shaders.order_define); a window renderer's frame is RGBA
-        code = cv2.COLOR_BGRA2BGR if self.headless else cv2.COLOR_RGBA2BGR
-        frame = cv2.cvtColor(self._fb.read(), code)
+        frame = cv2.cvtColor(self._out.read(), cv2.COLOR_BGRA2BGR if self.headless else cv2.COLOR_RGBA2BGR)
         if not self.headless:
             self.present()
         return frame
+
+    def _draw_quads(self, program: str, vao_vbo: tuple[int, int], rows: np.ndarray, vp: np.ndarray) -> None:
+        if not len(rows):
+            return
+        gl = self._gl
+        prog = self._prog[program]
+        gl.glUseProgram(prog)
+        uniform_matrix(gl, prog, "view_proj", vp)
+        if program in ("CAPSULE", "FLASH"):
+            uniform(gl, prog, "eye", *self.camera.eye)
+        if program == "CAPSULE":
+            uniform(gl, prog, "glow_colour", 1.0, 0.2, 0.1)
+            cam = self.camera
+            fwd = np.subtract(cam.target, cam.eye)
+            uniform(gl, prog, "cam_fwd", *(fwd / np.linalg.norm(fwd)))
+            far, near = cam.far, cam.near  # window depth of a point at view depth z: a − b / z
+            uniform(gl, prog, "depth_ab", 0.5 * (far + near) / (far - near) + 0.5, far * near / (far - near))
+        if program == "FLASH":
+            uniform(gl, prog, "colour", *rgb("flash", self.style.colours.flash))
+        vao, vbo = vao_vbo
+        upload(gl, gl.GL_ARRAY_BUFFER, vbo, np.ascontiguousarray(rows, dtype=np.float32), gl.GL_STREAM_DRAW)
+        gl.glBindVertexArray(vao)
+        gl.glDrawArraysInstanced(gl.GL_TRIANGLE_STRIP, 0, 4, len(rows))
 
     def _draw_stage(self, vp: np.ndarray) -> None:
         """Floor and back wall into the background target (full-screen fragment work: ~10 ms on
         llvmpipe at 1280×720, so it is drawn once per camera and copied every frame)."""
         gl = self._gl
         self._background.bind()
-        gl.glClearColor(0.0, 0.0, 0.0, 1.0)
+        gl.glClearColor(*rgb("background", self.style.colours.background), 1.0)
         gl.glDepthMask(gl.GL_TRUE)
         gl.glClear(gl.GL_COLOR_BUFFER_BIT | gl.GL_DEPTH_BUFFER_BIT)
         gl.glEnable(gl.GL_DEPTH_TEST)
         gl.glDepthFunc(gl.GL_LESS)
         gl.glDisable(gl.GL_BLEND)
-        gl.glUseProgram(self._stage_prog)
-        uniform_matrix(gl, self._stage_prog, "view_proj", vp)
-        uniform(gl, self._stage_prog, "stage_x", *self.stage_x)
-        uniform(gl, self._stage_prog, "eye", *self.camera.eye)
+        prog = self._prog["STAGE"]
+        gl.glUseProgram(prog)
+        uniform_matrix(gl, prog, "view_proj", vp)
+        uniform(gl, prog, "stage_x", *self.stage_x)
+        uniform(gl, prog, "eye", *self.camera.eye)
+        c = self.style.colours
+        for name, value in (("c_floor", c.floor), ("c_stage", c.stage), ("c_grid", c.grid), ("c_edge", c.stage_edge),
+                            ("c_wall_low", c.wall_low), ("c_wall_high", c.wall_high)):
+            uniform(gl, prog, name, *rgb(name, value))
         gl.glBindVertexArray(self._stage_vao)
         gl.glDrawArrays(gl.GL_TRIANGLES, 0, len(_STAGE))
         self._background_camera = self.camera
 
-    def _draw_capsules(self, which: int, instances: np.ndarray) -> None:
-        gl = self._gl
-        vao, vbo = self._capsule_vaos[which]
-        upload(gl, gl.GL_ARRAY_BUFFER, vbo, instances.astype(np.float32), gl.GL_STREAM_DRAW)
-        gl.glBindVertexArray(vao)
-        # closed meshes: dropping back faces changes no pixel (checked) and saves ~30 % of the
-        # per-triangle work, which bounds llvmpipe here; GL_BACK as the mesh winds through the y-flip
-        gl.glEnable(gl.GL_CULL_FACE)
-        gl.glFrontFace(gl.GL_CCW)
-        gl.glCullFace(gl.GL_BACK)
-        gl.glDrawElementsInstanced(
-            gl.GL_TRIANGLES, self._capsule_indices, gl.GL_UNSIGNED_INT, None, len(instances)
-        )
-        gl.glDisable(gl.GL_CULL_FACE)
-
     def _figures(
-        self, chars: tuple[CharacterSnapshot, ...], keyframes: Mapping[str, KeyframeSet] | KeyframeSet
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Capsule ends, radii, colours (in snapshot order) and shadow blobs of all characters."""
-        per = len(CAPSULES)
+        self, t: float, chars: tuple[CharacterSnapshot, ...], keyframes: Sets
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Capsule ends a, b (N, C, 3), radii (N, C) and instances (N·C, CAPSULE_FLOATS), in snapshot order."""
         n = len(chars)
-        a, b = np.zeros((n, per, 3)), np.zeros((n, per, 3))
-        radii = np.zeros((n, per))
-        rots = body_rotations(np.array([c.orientation for c in chars], dtype=float).reshape(n, 4))
+        if n == 0:
+            return np.zeros((0, 0, 3)), np.zeros((0, 0, 3)), np.zeros((0, 0)), np.zeros((0, CAPSULE_FLOATS))
+        rots = body_rotations(np.array([c.orientation for c in chars], dtype=float))
         self._check_frames(chars, rots)
+        positions = np.array([c.position for c in chars], dtype=float)
+        heights = np.array([c.height for c in chars], dtype=float)
+        behaviours = self.fade.behaviours(t, chars)
         groups: dict[int, tuple[KeyframeSet, list[int]]] = {}
         for i, c in enumerate(chars):
-            kset = self._set_for(c.name, keyframes)
+            kset = self._set_for(c, keyframes)
             groups.setdefault(id(kset), (kset, []))[1].append(i)
+        parts = []
         for kset, idx in groups.values():
+            figure = figure_for(kset.skeleton)
+            sel = np.array(idx)
             group = [chars[i] for i in idx]
-            poses = kset.poses([query_from_snapshot(c) for c in group])
-            lift = com_fraction() - self.com_fraction
-            ga, gb, gr = figure_capsules(
-                group, poses, kset.skeleton, kset.height, com_lift=lift, rotations=rots[idx]
-            )
-            a[idx], b[idx], radii[idx] = ga.reshape(-1, per, 3), gb.reshape(-1, per, 3), gr.reshape(-1, per)
-        colours = figure_colours(chars, flash_newtons=self.flash_newtons)
-        heights = np.array([c.height for c in chars], dtype=float)
-        blobs = shadow_blobs(a.reshape(-1, 3), b.reshape(-1, 3), per, heights)
-        return a.reshape(-1, 3), b.reshape(-1, 3), radii.reshape(-1), colours, blobs
+            poses = kset.evaluate(kset.snapshot_array(group), [behaviours[i] for i in idx])
+            scale = heights[sel] / kset.height
+            body = np.array([self._com_fraction(c) for c in group])
+            lift = (set_com_fraction(figure) - body) * kset.height
+            a, b, r = posed_capsules(figure, poses, positions[sel], rots[sel], scale, lift)
+            colours = figure_colours(group, figure.material, self.style.colours, self.flash_newtons)
+            parts.append((sel, a, b, r, colours))
+        if len(parts) == 1:
+            _, a, b, r, colours = parts[0]
+        else:  # several sets: back into snapshot order (every figure has the same number of capsules)
+            per = parts[0][1].shape[1]
+            a, b = np.zeros((n, per, 3)), np.zeros((n, per, 3))
+            r, colours = np.zeros((n, per)), np.zeros((n, per, 5))
+            for sel, pa, pb, pr, pc in parts:
+                a[sel], b[sel], r[sel], colours[sel] = pa, pb, pr, pc
+        instances = np.concatenate([a, b, r[..., None], colours], axis=2).reshape(-1, CAPSULE_FLOATS)
+        return a, b, r, instances
+
+    def _com_fraction(self, c: CharacterSnapshot) -> float:
+        f = self.com_fraction
+        if not isinstance(f, Mapping):
+            return float(f)
+        return float(f.get(c.name, f.get(getattr(c, "kind", ""), f.get("*", 0.5))))
 
     @staticmethod
-    def _set_for(name: str, keyframes: Mapping[str, KeyframeSet] | KeyframeSet) -> KeyframeSet:
+    def _set_for(c: CharacterSnapshot, keyframes: Sets) -> KeyframeSet:
+        """The character's set: one for all, or by its name, else by its kind (spec name), else ``"*"``."""
         if isinstance(keyframes, KeyframeSet):
             return keyframes
-        found = keyframes.get(name, keyframes.get("*"))
+        found = keyframes.get(c.name) or keyframes.get(getattr(c, "kind", "")) or keyframes.get("*")
         if found is None:
             raise KeyError(
-                f"render: no keyframe set for character {name!r} (sets for: {', '.join(sorted(keyframes))})"
+                f"render: no keyframe set for character {c.name!r} (sets for: {', '.join(sorted(keyframes))})"
             )
         return found
 
@@ -318,67 +350,39 @@ class Renderer:
         off = np.abs(np.remainder(yaw - heading + math.pi, 2.0 * math.pi) - math.pi)
         bad = (np.abs(tilt).max(axis=1) < 0.3) & (off > 0.35)
         if np.any(bad):
-            c = chars[int(np.argmax(bad))]
-            yaw_c = float(yaw[int(np.argmax(bad))])
+            i = int(np.argmax(bad))
             self._warned.add("frame")
             warnings.warn(
-                f"render: character {c.name!r}: orientation faces {math.degrees(yaw_c):.0f}° but heading is "
-                f"{math.degrees(c.heading):.0f}°; the renderer assumes body axes x forward, y left, z up",
+                f"render: character {chars[i].name!r}: orientation faces {math.degrees(float(yaw[i])):.0f}° but "
+                f"heading is {math.degrees(chars[i].heading):.0f}°; the renderer assumes body axes x forward, "
+                "y left, z up",
                 stacklevel=3,
             )
 
-    def _overlay(self, image: np.ndarray) -> None:
-        gl = self._gl
-        img = np.ascontiguousarray(image)
-        if img.dtype != np.uint8 or img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] != 3):
-            raise ValueError(
-                f"silhouette: expected an (h, w) uint8 mask or (h, w, 3) uint8 BGR image, got {img.dtype} "
-                f"{img.shape}"
-            )
-        mask = img.ndim == 2
-        gl.glActiveTexture(gl.GL_TEXTURE0)
-        gl.glBindTexture(gl.GL_TEXTURE_2D, self._texture)
-        gl.glPixelStorei(gl.GL_UNPACK_ALIGNMENT, 1)
-        fmt, internal = (gl.GL_RED, gl.GL_R8) if mask else (gl.GL_RGB, gl.GL_RGB8)
-        gl.glTexImage2D(
-            gl.GL_TEXTURE_2D,
-            0,
-            internal,
-            img.shape[1],
-            img.shape[0],
-            0,
-            fmt,
-            gl.GL_UNSIGNED_BYTE,
-            img.ctypes.data_as(ctypes.c_void_p),
-        )
-        for p in (gl.GL_TEXTURE_MIN_FILTER, gl.GL_TEXTURE_MAG_FILTER):
-            gl.glTexParameteri(gl.GL_TEXTURE_2D, p, gl.GL_LINEAR)
-        for p in (gl.GL_TEXTURE_WRAP_S, gl.GL_TEXTURE_WRAP_T):
-            gl.glTexParameteri(gl.GL_TEXTURE_2D, p, gl.GL_CLAMP_TO_EDGE)
-        gl.glDisable(gl.GL_DEPTH_TEST)
-        gl.glEnable(gl.GL_BLEND)
-        gl.glUseProgram(self._overlay_prog)
-        gl.glUniform1i(gl.glGetUniformLocation(self._overlay_prog, b"image"), 0)
-        gl.glUniform1i(gl.glGetUniformLocation(self._overlay_prog, b"is_mask"), int(mask))
-        uniform(gl, self._overlay_prog, "tint", 0.45, 0.82, 1.0)  # light blue
-        uniform(gl, self._overlay_prog, "opacity", 0.35)
-        gl.glBindVertexArray(self._overlay_vao)
-        gl.glDrawArrays(gl.GL_TRIANGLE_STRIP, 0, 4)
-        gl.glEnable(gl.GL_DEPTH_TEST)
-
     # ------------------------------------------------------------------ window and life cycle
 
+    @property
+    def should_close(self) -> bool:
+        """A window or kiosk renderer whose window was closed (or Esc pressed): time to stop."""
+        return bool(not self.headless and getattr(self._window, "has_exit", False))
+
     def present(self) -> None:
-        """Window mode: show the last drawn frame (blit the offscreen target to the window) and flip;
+        """Window mode: show the last drawn frame letterboxed in the window and handle its events;
         ``draw`` does this itself in window mode."""
         if self.headless:
             raise RuntimeError("render: present() needs a window renderer (headless=False)")
         gl = self._gl
-        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._fb.read_fbo)
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._out.read_fbo)
         gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, 0)
         w, h = self._window.get_framebuffer_size()
+        k = min(w / self.width, h / self.height)
+        dw, dh = int(self.width * k), int(self.height * k)
+        x0, y0 = (w - dw) // 2, (h - dh) // 2
+        gl.glClearColor(0.0, 0.0, 0.0, 1.0)
+        gl.glClear(gl.GL_COLOR_BUFFER_BIT)
         # the offscreen image is stored top row first; flip while blitting
-        gl.glBlitFramebuffer(0, 0, self.width, self.height, 0, h, w, 0, gl.GL_COLOR_BUFFER_BIT, gl.GL_LINEAR)
+        gl.glBlitFramebuffer(0, 0, self.width, self.height, x0, y0 + dh, x0 + dw, y0, gl.GL_COLOR_BUFFER_BIT,
+                             gl.GL_LINEAR)
         self._window.flip()
         self._window.dispatch_events()
 
@@ -390,6 +394,8 @@ class Renderer:
         self._window.switch_to()
         self._fb.delete()
         self._background.delete()
+        if self._out is not self._fb:
+            self._out.delete()
         self._window.close()
 
     def __enter__(self) -> Renderer:

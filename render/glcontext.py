@@ -79,8 +79,9 @@ def import_pyglet(headless: bool) -> tuple[ModuleType, ModuleType]:
     return pyglet, gl
 
 
-def open_context(headless: bool, width: int, height: int) -> tuple[Any, ModuleType]:
-    """A pyglet window (a 16×16 pbuffer when headless) whose GL context is current, and pyglet.gl."""
+def open_context(headless: bool, width: int, height: int, fullscreen: bool = False) -> tuple[Any, ModuleType]:
+    """A pyglet window (a 16×16 pbuffer when headless; the whole screen with the cursor hidden when
+    ``fullscreen``) whose GL context is current, and pyglet.gl."""
     pyglet, gl = import_pyglet(headless)
     try:
         display = pyglet.display.get_display()
@@ -92,8 +93,12 @@ def open_context(headless: bool, width: int, height: int) -> tuple[Any, ModuleTy
         )
         if headless:
             window = pyglet.window.Window(16, 16, visible=False, config=config)
+        elif fullscreen:
+            window = pyglet.window.Window(caption="jostle", config=config, fullscreen=True, vsync=True)
+            window.set_mouse_visible(False)
         else:
-            window = pyglet.window.Window(width, height, caption="jostle", config=config, vsync=False)
+            window = pyglet.window.Window(width, height, caption="jostle", config=config, vsync=False,
+                                          resizable=True)
     except (
         Exception
     ) as e:  # pyglet raises several unrelated types here (NoSuchDisplayException, GLException, …)
@@ -217,9 +222,10 @@ class Framebuffer:
         self._names.append(("fb", fbo))
         return fbo
 
-    def copy_from(self, other: Framebuffer) -> None:
-        """Copy colour and depth from a framebuffer of the same size and samples (the cached background)."""
+    def copy_from(self, other: Framebuffer, depth: bool = True) -> None:
+        """Copy colour (and depth) from a framebuffer of the same size and samples (the cached background)."""
         gl = self.gl
+        mask = gl.GL_COLOR_BUFFER_BIT | (gl.GL_DEPTH_BUFFER_BIT if depth else 0)
         gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, other.draw_fbo)
         gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, self.draw_fbo)
         gl.glBlitFramebuffer(
@@ -231,9 +237,27 @@ class Framebuffer:
             0,
             self.width,
             self.height,
-            gl.GL_COLOR_BUFFER_BIT | gl.GL_DEPTH_BUFFER_BIT,
+            mask,
             gl.GL_NEAREST,
         )
+
+    def scale_from(self, other: Framebuffer) -> None:
+        """Colour from a framebuffer of another size, resolved and filtered (render_scale < 1)."""
+        gl = self.gl
+        other.resolve()
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, other.read_fbo)
+        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, self.draw_fbo)
+        gl.glBlitFramebuffer(0, 0, other.width, other.height, 0, 0, self.width, self.height,
+                             gl.GL_COLOR_BUFFER_BIT, gl.GL_LINEAR)
+
+    def resolve(self) -> None:
+        """Multisampled: resolve into the read-back target (nothing to do without multisampling)."""
+        if self.samples > 0:
+            gl = self.gl
+            gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self.draw_fbo)
+            gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, self.read_fbo)
+            gl.glBlitFramebuffer(0, 0, self.width, self.height, 0, 0, self.width, self.height,
+                                 gl.GL_COLOR_BUFFER_BIT, gl.GL_NEAREST)
 
     def bind(self) -> None:
         self.gl.glBindFramebuffer(self.gl.GL_FRAMEBUFFER, self.draw_fbo)
@@ -242,21 +266,7 @@ class Framebuffer:
     def read(self) -> np.ndarray:
         """The frame as (H, W, 4) uint8, row 0 first as GL stores it (the shared buffer: copy to keep)."""
         gl = self.gl
-        if self.samples > 0:
-            gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self.draw_fbo)
-            gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, self.read_fbo)
-            gl.glBlitFramebuffer(
-                0,
-                0,
-                self.width,
-                self.height,
-                0,
-                0,
-                self.width,
-                self.height,
-                gl.GL_COLOR_BUFFER_BIT,
-                gl.GL_NEAREST,
-            )
+        self.resolve()
         gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self.read_fbo)
         gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
         gl.glReadPixels(

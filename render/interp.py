@@ -1,16 +1,16 @@
-"""Interpolation in the keyframe space Q = (Θx, Θz, Dx, Dz) for one behaviour B (Mitake et al. 2009 §5).
+"""Interpolation in the keyframe space Q for one behaviour B (Mitake et al. 2009 §5), vectorised.
 
-A *curve* is one 1-D animation: keys at increasing coordinates along one axis of Q, at a fixed
-*base* for the other three coordinates — each base coordinate a number, or ``None`` ("any": the
-animation holds for every value of it, as the paper's stand-up line does for D). Along Dx/Dz the
-curve is periodic (p(x) = x − ⌊x⌋); along Θ it is a segment, and a query beyond its ends takes the
-end key. A key is either a stored pose (an index into the set's key table) or a *reference* to a
+Q's continuous coordinates are ``Space.axes``: always Θx, Θz, Dx, Dz, plus any a set adds (e.g.
+``speed``). A *curve* is one 1-D animation: keys at increasing coordinates along one axis, at a
+fixed *base* for the other coordinates — each a number, or ``None`` ("any": the animation holds for
+every value of it, as the paper's stand-up line does for D). Along a periodic axis (Dx, Dz) the
+curve wraps (p(x) = x − ⌊x⌋); along any other axis it is a segment, and a query beyond its ends
+takes the end key. A key is a stored pose (an index into the set's key table) or a *reference* to a
 family: "here the pose is whatever that family gives at this query" (how a fall starts from the
 current walking phase).
 
 A *family* is one curve, or several parallel curves whose bases differ in one coordinate (the
-*loft* coordinate): between neighbouring members the family blends them linearly in that
-coordinate (periodically for Dx/Dz).
+*loft* coordinate): between neighbouring members it blends them linearly in that coordinate.
 
 Evaluating a query gives non-negative weights over the key table that sum to 1:
 
@@ -20,21 +20,56 @@ Evaluating a query gives non-negative weights over the key table that sum to 1:
 3. the families of a behaviour: inverse-distance weights ``(d_min / d_F) ** sharpness``,
    normalised. A family at distance 0 (the query lies on one of its curves) takes all the weight,
    so the set is exact on every curve and at every key; families that meet must agree where they
-   meet (the loader checks it). Distances add Θ differences (radians) and periodic D differences
-   times ``cycle_weight`` in quadrature; "any" coordinates do not count.
+   meet (the loader checks it). Distances add each coordinate's difference times the axis'
+   ``scale`` (radians for Θ; ``cycle_weight`` per cycle for D), in quadrature; "any" does not count.
 
-Everything is a convex combination of stored keys, so nothing overshoots its neighbours.
+Everything is a convex combination of stored keys, so nothing overshoots its neighbours. All of it
+runs on whole batches: one set of numpy operations per behaviour, whatever the number of queries.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-AXES: tuple[str, ...] = ("theta_x", "theta_z", "dx", "dz")
-PERIODIC: tuple[bool, ...] = (False, False, True, True)
+STANDARD_AXES: tuple[str, ...] = ("theta_x", "theta_z", "dx", "dz")
 _ZERO = 1e-12  # distances at or below this count as "on the curve"
+
+
+@dataclass(frozen=True)
+class Space:
+    """The continuous coordinates of Q: names, periodicity, distance scale, and the range queries are
+    clamped to (±inf for none)."""
+
+    axes: tuple[str, ...]
+    periodic: tuple[bool, ...]
+    scale: tuple[float, ...]
+    lo: tuple[float, ...]
+    hi: tuple[float, ...]
+
+    @classmethod
+    def standard(cls, cycle_weight: float = 0.5) -> Space:
+        inf = math.inf
+        return cls(STANDARD_AXES, (False, False, True, True), (1.0, 1.0, cycle_weight, cycle_weight),
+                   (-inf,) * 4, (inf,) * 4)
+
+    def with_axis(self, name: str, *, periodic: bool, scale: float, lo: float, hi: float) -> Space:
+        return Space(self.axes + (name,), self.periodic + (periodic,), self.scale + (scale,),
+                     self.lo + (lo,), self.hi + (hi,))
+
+    @property
+    def dims(self) -> int:
+        return len(self.axes)
+
+    def clamp(self, q: np.ndarray) -> np.ndarray:
+        """Queries (N, D) with periodic coordinates wrapped into [0, 1) and the others clamped to range."""
+        q = np.clip(np.asarray(q, dtype=float), self.lo, self.hi)
+        per = np.array(self.periodic)
+        if per.any():
+            q[:, per] -= np.floor(q[:, per])
+        return q
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,7 +80,7 @@ class Curve:
     behaviour: str
     family: str
     axis: int
-    base: tuple[float | None, ...]  # 4 entries; None = any; base[axis] is None
+    base: tuple[float | None, ...]  # one per axis; None = any; base[axis] is None
     coords: np.ndarray  # (M,) strictly increasing; in [0, 1) on a periodic axis
     keys: tuple[int | str, ...]
 
@@ -61,44 +96,12 @@ class Curve:
     def hi(self) -> float:
         return float(self.coords[-1])
 
-    def spans(self, coord: int) -> tuple[float, float] | None:
-        """The set of values of ``coord`` on this curve: (lo, hi), or None for "all values"."""
+    def spans(self, coord: int, space: Space) -> tuple[float, float] | None:
+        """The values of ``coord`` on this curve: (lo, hi), or None for "all values"."""
         if coord == self.axis:
-            return None if PERIODIC[coord] else (self.lo, self.hi)
+            return None if space.periodic[coord] else (self.lo, self.hi)
         b = self.base[coord]
         return None if b is None else (b, b)
-
-
-def bracket(coords: np.ndarray, x: np.ndarray, periodic: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Indices (i0, i1) of the keys around each x and the fraction t from i0 to i1 (t = 0 on a key).
-
-    Periodic: x wraps into [0, 1) and the last key is followed by the first. Otherwise x is clamped
-    to the first/last key.
-    """
-    m = len(coords)
-    x = np.asarray(x, dtype=float)
-    zeros = np.zeros(x.shape, dtype=int)
-    if m == 1:
-        return zeros, zeros, np.zeros(x.shape)
-    if periodic:
-        x = x - np.floor(x)
-        i1 = np.searchsorted(coords, x, side="right") % m
-        i0 = (i1 - 1) % m
-        span = (coords[i1] - coords[i0]) % 1.0
-        span = np.where(span <= 0.0, 1.0, span)
-        t = ((x - coords[i0]) % 1.0) / span
-        return i0, i1, np.clip(t, 0.0, 1.0)
-    xc = np.clip(x, coords[0], coords[-1])
-    i1 = np.clip(np.searchsorted(coords, xc, side="right"), 1, m - 1)
-    i0 = i1 - 1
-    t = (xc - coords[i0]) / (coords[i1] - coords[i0])
-    return i0, i1, np.clip(t, 0.0, 1.0)
-
-
-def periodic_gap(a: np.ndarray | float, b: np.ndarray | float) -> np.ndarray:
-    """|a − b| on the unit circle (0 … 0.5)."""
-    d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
-    return np.abs(d - np.round(d))
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,134 +119,180 @@ class Family:
         return self.members[0].axis
 
 
-class Interpolator:
-    """Weights over the key table for batches of queries; built once per keyframe set."""
+def periodic_gap(a: np.ndarray | float, b: np.ndarray | float) -> np.ndarray:
+    """|a − b| on the unit circle (0 … 0.5)."""
+    d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+    return np.abs(d - np.round(d))
 
-    def __init__(
-        self, families: dict[str, Family], n_keys: int, *, cycle_weight: float, sharpness: float
-    ) -> None:
-        self.families = families
-        self.n_keys = n_keys
-        self.cycle_weight = cycle_weight
+
+def bracket(coords: np.ndarray, x: np.ndarray, periodic: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Indices (i0, i1) of the keys around each x and the fraction t from i0 to i1 (t = 0 on a key).
+    Periodic: x wraps and the last key is followed by the first; otherwise x is clamped to the ends."""
+    i0, i1, t = _bracket(coords[None, :], np.array([len(coords)]), np.array([periodic]),
+                         np.asarray(x, dtype=float).reshape(-1, 1))
+    return i0[:, 0], i1[:, 0], t[:, 0]
+
+
+def _bracket(
+    coords: np.ndarray, count_keys: np.ndarray, periodic: np.ndarray, x: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Batched ``bracket``: coords (C, M) padded with +inf, keys per row (C,), periodic (C,), x (N, C)."""
+    m = count_keys[None, :]
+    x = np.where(periodic[None, :], x - np.floor(x), x)
+    below = (x[:, :, None] >= coords[None, :, :]).sum(axis=2)  # keys at or below x: 0 … M
+    seg1 = np.clip(below, 1, np.maximum(m - 1, 1))
+    i1 = np.where(periodic[None, :], below % m, np.minimum(seg1, m - 1))
+    i0 = np.where(periodic[None, :], (below - 1) % m, np.maximum(seg1 - 1, 0))
+    rows = np.arange(coords.shape[0])[None, :]
+    c0, c1 = coords[rows, i0], coords[rows, i1]
+    span = np.where(periodic[None, :], (c1 - c0) % 1.0, c1 - c0)
+    off = np.where(periodic[None, :], (x - c0) % 1.0, x - c0)
+    single = m == 1
+    span = np.where(span > 0.0, span, 1.0)
+    t = np.where(single, 0.0, np.clip(off / span, 0.0, 1.0))
+    return i0, i1, t
+
+
+class BehaviourTable:
+    """The curves and families of one behaviour (plus the families they refer to), compiled to arrays."""
+
+    def __init__(self, behaviour: str, families: dict[str, Family], space: Space, sharpness: float) -> None:
+        own = [f for f in families.values() if f.behaviour == behaviour]
+        referenced = sorted({r for f in own for r in f.refs} - {f.name for f in own})
+        fams = own + [families[r] for r in referenced]
+        self.behaviour = behaviour
+        self.space = space
         self.sharpness = sharpness
-        self.by_behaviour: dict[str, list[Family]] = {}
-        # per curve: each key's column in the key table, or −1 − r for the r-th referenced family
-        self._slots: dict[str, tuple[np.ndarray, tuple[str, ...]]] = {}
-        for fam in families.values():
-            self.by_behaviour.setdefault(fam.behaviour, []).append(fam)
-            for curve in fam.members:
-                refs = tuple(sorted({k for k in curve.keys if isinstance(k, str)}))
-                cols = np.array([k if isinstance(k, int) else -1 - refs.index(k) for k in curve.keys])
-                self._slots[curve.name] = (cols, refs)
+        self.n_own = len(own)
+        self.family_names = tuple(f.name for f in fams)
+        curves = [c for f in fams for c in f.members]
+        index = {c.name: i for i, c in enumerate(curves)}
+        fam_index = {f.name: i for i, f in enumerate(fams)}
+        m = max(len(c.coords) for c in curves)
+        d = space.dims
+        self.coords = np.full((len(curves), m), np.inf)
+        self.slots = np.zeros((len(curves), m), dtype=np.int64)
+        self.count = np.array([len(c.coords) for c in curves])
+        self.axis = np.array([c.axis for c in curves])
+        self.periodic = np.array([space.periodic[c.axis] for c in curves])
+        self.lo = np.array([c.lo for c in curves])
+        self.hi = np.array([c.hi for c in curves])
+        self.base = np.zeros((len(curves), d))
+        self.weight = np.zeros((len(curves), d))  # scale² where the base is a number
+        self.base_periodic = np.array(space.periodic)
+        scale2 = np.array(space.scale) ** 2
+        for i, c in enumerate(curves):
+            self.coords[i, : len(c.coords)] = c.coords
+            for k, key in enumerate(c.keys):
+                self.slots[i, k] = key if isinstance(key, int) else -1 - fam_index[key]
+            for j, b in enumerate(c.base):
+                if b is not None and j != c.axis:
+                    self.base[i, j], self.weight[i, j] = b, scale2[j]
+        self.axis_scale2 = scale2[self.axis]
+        # families: member curves and loft values; single-member families blend nothing
+        self.first = np.array([index[f.members[0].name] for f in fams])
+        self.lofts: list[tuple[int, int, np.ndarray, np.ndarray, bool]] = []  # (family, coord, values, curves, periodic)
+        for fi, f in enumerate(fams):
+            if f.loft is not None:
+                values = np.array([mb.base[f.loft] for mb in f.members], dtype=float)
+                members = np.array([index[mb.name] for mb in f.members])
+                self.lofts.append((fi, f.loft, values, members, space.periodic[f.loft]))
+        self.has_refs = bool(np.any(self.slots < 0))
 
-    # -------------------------------------------------------------- one curve, one family
-
-    def curve_distance(self, curve: Curve, q: np.ndarray) -> np.ndarray:
-        """Distance (N,) from queries q (N, 4) to the curve, in radians-equivalent."""
-        d2 = np.zeros(len(q))
-        for c in range(4):
-            x = q[:, c]
-            if c == curve.axis:
-                if not PERIODIC[c]:
-                    d2 += np.maximum(0.0, np.maximum(curve.lo - x, x - curve.hi)) ** 2
-                continue
-            b = curve.base[c]
-            if b is None:
-                continue
-            d2 += (self.cycle_weight * periodic_gap(x, b)) ** 2 if PERIODIC[c] else (x - b) ** 2
-        return np.sqrt(d2)
-
-    def curve_weights(self, curve: Curve, q: np.ndarray, ref_weights: dict[str, np.ndarray]) -> np.ndarray:
-        """Weights (N, K) of one curve alone at queries q; references resolved through ``ref_weights``."""
+    def distances(self, q: np.ndarray) -> np.ndarray:
+        """Distance (N, F) from clamped queries q (N, D) to each of the behaviour's own families."""
         n = len(q)
-        out = np.zeros((n, self.n_keys))
-        i0, i1, t = bracket(curve.coords, q[:, curve.axis], PERIODIC[curve.axis])
-        cols, refs = self._slots[curve.name]
-        rows = np.arange(n)
-        for idx, w in ((i0, 1.0 - t), (i1, t)):
-            c = cols[idx]
-            direct = c >= 0
-            np.add.at(out, (rows[direct], c[direct]), w[direct])
-            for r, name in enumerate(refs):
-                sel = c == -1 - r
-                if np.any(sel):
-                    out[sel] += w[sel, None] * ref_weights[name][sel]
-        return out
+        dist = self._curve_distances(q, q[:, self.axis])
+        j0, j1, lam = self._members(q)
+        r = np.arange(n)[:, None]
+        return ((1 - lam) * dist[r, j0] + lam * dist[r, j1])[:, : self.n_own]
 
-    def family_weights(
-        self, fam: Family, q: np.ndarray, ref_weights: dict[str, np.ndarray]
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """(weights (N, K), distance (N,)) of one family alone at queries q."""
+    def _curve_distances(self, q: np.ndarray, x: np.ndarray) -> np.ndarray:
+        gap = q[:, None, :] - self.base[None, :, :]
+        gap = np.where(self.base_periodic, np.abs(gap - np.round(gap)), gap)
+        d2 = np.einsum("ncd,cd->nc", gap * gap, self.weight)
+        over = np.where(self.periodic, 0.0, np.maximum(0.0, np.maximum(self.lo - x, x - self.hi)))
+        return np.sqrt(d2 + self.axis_scale2 * over * over)
+
+    def _members(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per family (N, F): the two members around the query's loft coordinate and λ between them."""
+        n, nf = len(q), len(self.first)
+        j0 = np.broadcast_to(self.first, (n, nf)).copy()
+        j1 = j0.copy()
+        lam = np.zeros((n, nf))
+        for fi, coord, values, members, per in self.lofts:
+            a, b, u = _bracket(values[None, :], np.array([len(values)]), np.array([per]), q[:, coord : coord + 1])
+            j0[:, fi], j1[:, fi], lam[:, fi] = members[a[:, 0]], members[b[:, 0]], u[:, 0]
+        return j0, j1, lam
+
+    def weights(self, q: np.ndarray, n_keys: int) -> np.ndarray:
+        """Weights (N, K) over the key table for clamped queries q (N, D): ≥ 0, rows sum to 1."""
         n = len(q)
-        if fam.loft is None:
-            (curve,) = fam.members
-            return self.curve_weights(curve, q, ref_weights), self.curve_distance(curve, q)
-        values = np.array([m.base[fam.loft] for m in fam.members], dtype=float)
-        i0, i1, t = bracket(values, q[:, fam.loft], PERIODIC[fam.loft])
-        weights = np.zeros((n, self.n_keys))
-        dist = np.zeros(n)
-        for k, member in enumerate(fam.members):
-            lam = np.where(i0 == k, 1.0 - t, 0.0) + np.where(i1 == k, t, 0.0)
-            sel = lam > 0.0
-            if not np.any(sel):
-                continue
-            weights[sel] += lam[sel, None] * self.curve_weights(member, q[sel], _subset(ref_weights, sel))
-            dist[sel] += lam[sel] * self.curve_distance(member, q[sel])
-        return weights, dist
-
-    # -------------------------------------------------------------- a whole behaviour
-
-    def referenced(self, q: np.ndarray, names: set[str]) -> dict[str, np.ndarray]:
-        """Weights of the referenced families (which hold no references themselves)."""
-        return {name: self.family_weights(self.families[name], q, {})[0] for name in sorted(names)}
-
-    def weights(self, q: np.ndarray, behaviour: str) -> np.ndarray:
-        """Weights (N, K) over the key table for queries q (N, 4) of one behaviour: ≥ 0, rows sum to 1."""
-        fams = self.by_behaviour[behaviour]
-        refs = self.referenced(q, set().union(*(f.refs for f in fams)))
-        parts = [self.family_weights(f, q, refs) for f in fams]
-        dist = np.stack([d for _, d in parts], axis=1)  # (N, F)
-        dmin = dist.min(axis=1, keepdims=True)
-        on = dist <= _ZERO
-        ratio = np.where(on, 1.0, np.where(dmin <= _ZERO, 0.0, dmin / np.maximum(dist, _ZERO)))
+        x = q[:, self.axis]  # (N, C)
+        i0, i1, t = _bracket(self.coords, self.count, self.periodic, x)
+        rows = np.arange(len(self.axis))[None, :]
+        k0, k1 = self.slots[rows, i0], self.slots[rows, i1]
+        dist = self._curve_distances(q, x)
+        j0, j1, lam = self._members(q)
+        r = np.arange(n)[:, None]
+        keys = np.stack([k0[r, j0], k1[r, j0], k0[r, j1], k1[r, j1]], axis=2)  # (N, F, 4)
+        t0, t1 = t[r, j0], t[r, j1]
+        within = np.stack([(1 - lam) * (1 - t0), (1 - lam) * t0, lam * (1 - t1), lam * t1], axis=2)
+        fdist = (1 - lam) * dist[r, j0] + lam * dist[r, j1]
+        # inverse-distance weights over the behaviour's own families
+        own = fdist[:, : self.n_own]
+        dmin = own.min(axis=1, keepdims=True)
+        on = own <= _ZERO
+        ratio = np.where(on, 1.0, np.where(dmin <= _ZERO, 0.0, dmin / np.maximum(own, _ZERO)))
         fw = ratio**self.sharpness
         fw /= fw.sum(axis=1, keepdims=True)
-        out = np.zeros((len(q), self.n_keys))
-        for j, (w, _) in enumerate(parts):
-            out += fw[:, j : j + 1] * w
-        return out
-
-
-def _subset(ref_weights: dict[str, np.ndarray], sel: np.ndarray) -> dict[str, np.ndarray]:
-    return {k: v[sel] for k, v in ref_weights.items()}
+        ek = keys[:, : self.n_own]  # (N, F, 4)
+        ew = within[:, : self.n_own] * fw[:, :, None]
+        if self.has_refs:  # a reference expands into the referenced family's own four entries
+            ref = ek < 0
+            target = np.where(ref, -1 - ek, 0)
+            rk = keys[r[:, :, None], target]  # (N, F, 4, 4)
+            rw = within[r[:, :, None], target] * ew[..., None]
+            direct = np.zeros_like(rw)
+            direct[..., 0] = ew
+            flat_k = np.where(ref[..., None], rk, np.where(ek[..., None] < 0, 0, ek[..., None]))
+            flat_w = np.where(ref[..., None], rw, direct)
+        else:
+            flat_k, flat_w = ek, ew
+        flat_k = flat_k.reshape(n, -1)
+        flat_w = flat_w.reshape(n, -1)
+        out = np.bincount((flat_k + np.arange(n)[:, None] * n_keys).ravel(), flat_w.ravel(), n * n_keys)
+        return out.reshape(n, n_keys)
 
 
 # ------------------------------------------------------------------------------ where curves meet
 
 
-def meeting_points(a: Curve, b: Curve, samples: int = 8) -> np.ndarray:
-    """Sample points (P, 4) of the set where two curves meet (empty when they do not).
+def meeting_points(a: Curve, b: Curve, space: Space, samples: int = 8) -> np.ndarray:
+    """Sample points (P, D) of Q where two curves meet (empty when they do not).
 
     Per coordinate each curve covers a point, an interval, or everything; the meeting set is the
     product of the per-coordinate intersections, sampled at their ends, at every key coordinate
-    inside them, and at ``samples`` points across a whole period.
+    inside them, and at ``samples`` points across a whole period (or a fair range when unbounded).
     """
     per_coord: list[np.ndarray] = []
-    for c in range(4):
-        sa, sb = a.spans(c), b.spans(c)
+    for c in range(space.dims):
+        sa, sb = a.spans(c, space), b.spans(c, space)
         keys = np.concatenate(
             [a.coords if c == a.axis else np.empty(0), b.coords if c == b.axis else np.empty(0)]
         )
         if sa is None and sb is None:
-            if PERIODIC[c]:
+            if space.periodic[c]:
                 vals = np.concatenate([np.arange(samples) / samples, keys])
-            else:  # "any" Θ on both: sample a fair range of tilts
-                vals = np.concatenate([np.linspace(-np.pi / 2, np.pi / 2, samples + 1), keys])
+            else:
+                lo = space.lo[c] if math.isfinite(space.lo[c]) else -np.pi / 2
+                hi = space.hi[c] if math.isfinite(space.hi[c]) else np.pi / 2
+                vals = np.concatenate([np.linspace(lo, hi, samples + 1), keys])
         else:
             lo = max(sa[0] if sa else -np.inf, sb[0] if sb else -np.inf)
             hi = min(sa[1] if sa else np.inf, sb[1] if sb else np.inf)
             if lo > hi + 1e-12:
-                return np.empty((0, 4))
+                return np.empty((0, space.dims))
             inner = keys[(keys >= lo) & (keys <= hi)]
             vals = np.concatenate([[lo, hi], inner, np.linspace(lo, hi, samples) if hi > lo else []])
         per_coord.append(np.unique(np.round(vals, 12)))

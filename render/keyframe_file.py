@@ -3,7 +3,7 @@
 Manifest::
 
     format = 1
-    skeleton = "humanoid"          # the skeleton the poses drive (render.mocap.HUMANOID)
+    skeleton = "humanoid"          # the skeleton the poses drive: humanoid | critter (render.skeletons)
     height = 1.62                  # soles to head top when standing, in the poses' metres
     default_behaviour = "walk"     # used for a behaviour B the set does not have (one warning)
     poses = ["poses/walk.toml"]    # pose files, relative to this file
@@ -12,12 +12,19 @@ Manifest::
     cycle_weight = 0.5             # radians of tilt that weigh as much as a whole Dx/Dz cycle
     sharpness = 2.0                # exponent of the inverse-distance weights between families
 
+    [dimensions.speed]             # optional: more coordinates of Q (see render.keyframes.EXTRA_AXES)
+    scale = 0.5                    # radians of tilt that weigh as much as one unit of it
+    min = 0.0                      # queries are clamped to [min, max]
+    max = 1.2
+    periodic = false               # true: keys in [0, 1), wrapping like Dx/Dz
+
     [[animation]]
     name = "fall_forward"
     behaviour = "walk"
     family = "fall_forward"        # optional; parallel animations sharing one family are blended
     axis = "theta_x"               # theta_x | theta_z | dx | dz
-    at = { theta_z = 0.0, dx = "any", dz = "any" }   # the other three coordinates: number or "any"
+    at = { theta_z = 0.0, dx = "any", dz = "any" }   # the other coordinates: number or "any"
+                                   # (an added dimension left out is "any")
     keys = [
       { at = 0.0, family = "walk" },            # here: the pose family "walk" gives at this query
       { at = 0.8, pose = "fall_forward_reach" },
@@ -47,13 +54,16 @@ from typing import Any
 
 import numpy as np
 
-from render.interp import AXES, PERIODIC, Curve, Family
-from render.mocap import HUMANOID, JOINTS, Skeleton
+from render.interp import STANDARD_AXES, Curve, Family, Space
+from render.mocap import JOINTS, Skeleton
 from render.pose_text import number, parse_pose
+from render.skeletons import SKELETONS
 
 FORMAT = 1
-SKELETONS: dict[str, Skeleton] = {"humanoid": HUMANOID}
-_TOP_KEYS = {"format", "skeleton", "height", "default_behaviour", "poses", "interpolation", "animation"}
+_TOP_KEYS = {
+    "format", "skeleton", "height", "default_behaviour", "poses", "interpolation", "dimensions", "animation"
+}
+_DIM_KEYS = {"scale", "min", "max", "periodic"}
 _ANIM_KEYS = {"name", "behaviour", "family", "axis", "at", "keys"}
 
 
@@ -70,6 +80,7 @@ class SetData:
     default_behaviour: str
     cycle_weight: float
     sharpness: float
+    space: Space
     families: dict[str, Family]
     key_names: tuple[str, ...]
     key_offsets: np.ndarray  # (K, 3)
@@ -115,6 +126,8 @@ def read_set(manifest: str | Path) -> SetData:
     if sharpness is None or sharpness < 1:
         raise fail(f"interpolation.sharpness: expected a number >= 1, got {interp.get('sharpness')!r}")
 
+    space = _dimensions(doc.get("dimensions", {}), Space.standard(cycle_weight), fail)
+
     # ---- pose files: raw tables by name, parsed when a key first uses them
     files = doc.get("poses")
     if not isinstance(files, list) or not files or not all(isinstance(f, str) for f in files):
@@ -150,7 +163,7 @@ def read_set(manifest: str | Path) -> SetData:
         raise fail("animation: expected at least one [[animation]] table")
     curves: list[Curve] = []
     for i, a in enumerate(anims):
-        curves.append(_read_animation(a, i, fail, raw, use_pose))
+        curves.append(_read_animation(a, i, fail, raw, use_pose, space))
     seen: set[str] = set()
     for c in curves:
         if c.name in seen:
@@ -158,7 +171,7 @@ def read_set(manifest: str | Path) -> SetData:
         seen.add(c.name)
     for name in raw:  # poses no key uses are still checked
         use_pose(name, "")
-    families = _families(curves, fail)
+    families = _families(curves, fail, space)
     behaviours = {f.behaviour for f in families.values()}
     default = doc.get("default_behaviour")
     if default not in behaviours:
@@ -169,6 +182,7 @@ def read_set(manifest: str | Path) -> SetData:
         default_behaviour=default,
         cycle_weight=cycle_weight,
         sharpness=sharpness,
+        space=space,
         families=families,
         key_names=tuple(names),
         key_offsets=np.array(offsets).reshape(-1, 3),
@@ -176,7 +190,35 @@ def read_set(manifest: str | Path) -> SetData:
     )
 
 
-def _read_animation(a: Any, i: int, fail: Any, raw: dict[str, Any], use_pose: Any) -> Curve:
+def _dimensions(table: Any, space: Space, fail: Any) -> Space:
+    if not isinstance(table, dict):
+        raise fail("dimensions: expected tables like [dimensions.speed]")
+    for name, d in table.items():
+        where = f"dimensions.{name}"
+        if name in STANDARD_AXES:
+            raise fail(f"{where}: {name} is always a dimension; add only new ones")
+        if not isinstance(d, dict) or set(d) - _DIM_KEYS:
+            raise fail(f"{where}: expected a table with only {', '.join(sorted(_DIM_KEYS))}")
+        periodic = d.get("periodic", False)
+        if not isinstance(periodic, bool):
+            raise fail(f"{where}.periodic: expected true or false, got {periodic!r}")
+        scale = number(d.get("scale", 1.0))
+        if scale is None or scale <= 0:
+            raise fail(f"{where}.scale: expected a number > 0, got {d.get('scale')!r}")
+        lo, hi = (0.0, 1.0) if periodic else (number(d.get("min", -math.inf)), number(d.get("max", math.inf)))
+        if "min" in d and lo is None or "max" in d and hi is None:
+            raise fail(f"{where}: min and max: expected finite numbers")
+        lo = -math.inf if lo is None else lo
+        hi = math.inf if hi is None else hi
+        if not lo < hi:
+            raise fail(f"{where}: expected min < max, got {lo} and {hi}")
+        space = space.with_axis(name, periodic=periodic, scale=scale, lo=lo, hi=hi)
+    return space
+
+
+def _read_animation(
+    a: Any, i: int, fail: Any, raw: dict[str, Any], use_pose: Any, space: Space
+) -> Curve:
     if not isinstance(a, dict):
         raise fail(f"animation {i}: expected a table")
     name = a.get("name")
@@ -192,25 +234,30 @@ def _read_animation(a: Any, i: int, fail: Any, raw: dict[str, Any], use_pose: An
     family = a.get("family", name)
     if not isinstance(family, str) or not family:
         raise fail(f"{where}: family: expected a non-empty string")
+    axes = space.axes
     axis_name = a.get("axis")
-    if axis_name not in AXES:
-        raise fail(f"{where}: axis: expected one of {', '.join(AXES)}, got {axis_name!r}")
-    axis = AXES.index(axis_name)
+    if axis_name not in axes:
+        raise fail(f"{where}: axis: expected one of {', '.join(axes)}, got {axis_name!r}")
+    axis = axes.index(axis_name)
     at = a.get("at")
-    others = [c for c in AXES if c != axis_name]
-    if not isinstance(at, dict) or set(at) != set(others):
+    others = [c for c in STANDARD_AXES if c != axis_name]
+    extra = [c for c in axes[len(STANDARD_AXES) :] if c != axis_name]
+    if not isinstance(at, dict) or not set(others) <= set(at) or set(at) - set(others) - set(extra):
         got = sorted(at) if isinstance(at, dict) else at
-        raise fail(f'{where}: at: expected exactly {", ".join(others)} (each a number or "any"), got {got!r}')
-    base: list[float | None] = [None] * 4
-    for c in others:
+        more = f" (and optionally {', '.join(extra)})" if extra else ""
+        raise fail(
+            f'{where}: at: expected exactly {", ".join(others)}{more} (each a number or "any"), got {got!r}'
+        )
+    base: list[float | None] = [None] * len(axes)
+    for c in others + [e for e in extra if e in at]:
         v = at[c]
         if v == "any":
             continue
         f = number(v)
         if f is None:
             raise fail(f'{where}: at.{c}: expected a finite number or "any", got {v!r}')
-        k = AXES.index(c)
-        base[k] = f - math.floor(f) if PERIODIC[k] else f
+        k = axes.index(c)
+        base[k] = f - math.floor(f) if space.periodic[k] else f
     keys = a.get("keys")
     if not isinstance(keys, list) or not keys:
         raise fail(f"{where}: keys: expected a list of {{ at = …, pose = … }} tables")
@@ -227,7 +274,7 @@ def _read_animation(a: Any, i: int, fail: Any, raw: dict[str, Any], use_pose: An
         x = number(key["at"])
         if x is None:
             raise fail(f"{kw}: at: expected a finite number, got {key['at']!r}")
-        if PERIODIC[axis] and not 0.0 <= x < 1.0:
+        if space.periodic[axis] and not 0.0 <= x < 1.0:
             raise fail(f"{kw}: at: {axis_name} is periodic; expected 0 <= at < 1, got {x}")
         kw = f"{kw} at {axis_name}={x:g}"
         if x in coords:
@@ -255,7 +302,7 @@ def _read_animation(a: Any, i: int, fail: Any, raw: dict[str, Any], use_pose: An
     )
 
 
-def _families(curves: list[Curve], fail: Any) -> dict[str, Family]:
+def _families(curves: list[Curve], fail: Any, space: Space) -> dict[str, Family]:
     groups: dict[str, list[Curve]] = {}
     for c in curves:
         groups.setdefault(c.family, []).append(c)
@@ -266,11 +313,11 @@ def _families(curves: list[Curve], fail: Any) -> dict[str, Family]:
             if m.behaviour != first.behaviour or m.axis != first.axis:
                 raise fail(
                     f"animation '{m.name}': family '{name}': its members must share behaviour and axis "
-                    f"(as '{first.name}': {first.behaviour}, {AXES[first.axis]})"
+                    f"(as '{first.name}': {first.behaviour}, {space.axes[first.axis]})"
                 )
         loft: int | None = None
         if len(members) > 1:
-            differ = {c for m in members for c in range(4) if m.base[c] != first.base[c]}
+            differ = {c for m in members for c in range(space.dims) if m.base[c] != first.base[c]}
             if len(differ) != 1 or any(m.base[next(iter(differ))] is None for m in members):
                 raise fail(
                     f"family '{name}': its animations must differ in exactly one coordinate, a number in all"
@@ -278,7 +325,7 @@ def _families(curves: list[Curve], fail: Any) -> dict[str, Family]:
             loft = next(iter(differ))
             values = [m.base[loft] for m in members]
             if len(set(values)) != len(values):
-                raise fail(f"family '{name}': two animations at the same {AXES[loft]}")
+                raise fail(f"family '{name}': two animations at the same {space.axes[loft]}")
             members = sorted(members, key=lambda m: m.base[loft])  # type: ignore[arg-type, return-value]
         refs = frozenset(k for m in members for k in m.keys if isinstance(k, str))
         out[name] = Family(name, first.behaviour, tuple(members), loft, refs)

@@ -14,28 +14,13 @@ import math
 import numpy as np
 
 from render import quaternion as quat
-from render.mocap import HUMANOID, JOINTS, URDF_SCALE
+from render.mocap import JOINTS
+from render.skeletons import HUMANOID_FIGURE, Figure
 
 X = np.array([1.0, 0.0, 0.0])
 Y = np.array([0.0, 1.0, 0.0])
 Z = np.array([0.0, 0.0, 1.0])
 
-# link masses (kg) and centres of mass in the link frame, from pybullet_data/humanoid/humanoid.urdf
-_MASS: dict[str, tuple[float, tuple[float, float, float]]] = {
-    "root": (6.0, (0.0, 0.28, 0.0)),
-    "chest": (14.0, (0.0, 0.48, 0.0)),
-    "neck": (2.0, (0.0, 0.70, 0.0)),
-    "right_hip": (4.5, (0.0, -0.84, 0.0)),
-    "right_knee": (3.0, (0.0, -0.80, 0.0)),
-    "right_ankle": (1.0, (0.18, -0.09, 0.0)),
-    "right_shoulder": (1.5, (0.0, -0.56, 0.0)),
-    "right_elbow": (1.0, (0.0, -0.48, 0.0)),
-    "right_wrist": (0.5, (0.0, 0.0, 0.0)),
-}
-_MASS.update({k.replace("right", "left"): v for k, v in list(_MASS.items()) if k.startswith("right")})
-_MASS_IDX = np.array([HUMANOID.names.index(k) for k in _MASS])
-_MASS_KG = np.array([m for m, _ in _MASS.values()])
-_MASS_OFF = np.array([o for _, o in _MASS.values()]) * URDF_SCALE
 SOLE_BELOW_ANKLE = 0.05  # metres from the ankle joint to the sole (the URDF foot box)
 
 
@@ -59,19 +44,22 @@ def joints(**by_name: np.ndarray) -> np.ndarray:
     return out
 
 
-def centre_of_mass(root_pos: np.ndarray, root_rot: np.ndarray, joint_rots: np.ndarray) -> np.ndarray:
-    """The skeleton's centre of mass (..., 3) (URDF link masses)."""
-    pos, r = HUMANOID.forward_kinematics(root_pos, root_rot, joint_rots)
-    p = pos[..., _MASS_IDX, :] + quat.rotate(r[..., _MASS_IDX, :], _MASS_OFF)
-    return np.einsum("...bc,b->...c", p, _MASS_KG) / _MASS_KG.sum()
+def centre_of_mass(
+    root_pos: np.ndarray, root_rot: np.ndarray, joint_rots: np.ndarray, figure: Figure = HUMANOID_FIGURE
+) -> np.ndarray:
+    """The skeleton's centre of mass (..., 3) (the figure's link masses; the humanoid's from the URDF)."""
+    pos, r = figure.skeleton.forward_kinematics(root_pos, root_rot, joint_rots)
+    p = pos[..., figure.mass_idx, :] + quat.rotate(r[..., figure.mass_idx, :], figure.mass_off)
+    return np.einsum("...bc,b->...c", p, figure.mass_kg) / figure.mass_kg.sum()
 
 
-def standing_height() -> float:
+def standing_height(figure: Figure = HUMANOID_FIGURE) -> float:
     """Soles to head top of the unrotated skeleton, metres."""
-    pos, _ = HUMANOID.forward_kinematics(np.zeros(3), quat.IDENTITY, np.tile(quat.IDENTITY, (len(JOINTS), 1)))
-    head = pos[HUMANOID.names.index("head_top"), 1]
-    ankle = pos[HUMANOID.names.index("right_ankle"), 1]
-    return float(head - ankle + SOLE_BELOW_ANKLE)
+    skel = figure.skeleton
+    pos, _ = skel.forward_kinematics(np.zeros(3), quat.IDENTITY, np.tile(quat.IDENTITY, (len(JOINTS), 1)))
+    head = pos[skel.names.index("head_top"), 1]
+    ankle = pos[skel.names.index("right_ankle"), 1]
+    return float(head - ankle + SOLE_BELOW_ANKLE * figure.radii[-1] / HUMANOID_FIGURE.radii[-1])
 
 
 def tilt_rotation(theta_x: float, theta_z: float) -> np.ndarray:
@@ -85,12 +73,12 @@ def yaw_rotation(heading: float) -> np.ndarray:
 
 
 def in_body_frame(
-    body_rot: np.ndarray, root_rot_world: np.ndarray, joint_rots: np.ndarray
+    body_rot: np.ndarray, root_rot_world: np.ndarray, joint_rots: np.ndarray, figure: Figure = HUMANOID_FIGURE
 ) -> tuple[np.ndarray, np.ndarray]:
     """(root_offset, root_rotation) of a pose in a body frame rotated by ``body_rot`` from the world,
     with the body's origin at the skeleton's centre of mass."""
     root_rot = quat.multiply(quat.conjugate(body_rot), root_rot_world)
-    return -centre_of_mass(np.zeros(3), root_rot, joint_rots), quat.normalize(root_rot)
+    return -centre_of_mass(np.zeros(3), root_rot, joint_rots, figure), quat.normalize(root_rot)
 
 
 def mirror(root_offset: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -104,9 +92,11 @@ def mirror(root_offset: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, 
 
 
 @functools.cache
-def com_fraction() -> float:
+def com_fraction(figure: Figure = HUMANOID_FIGURE) -> float:
     """Height of the standing skeleton's centre of mass above its soles, as a fraction of its height."""
     rest = np.tile(quat.IDENTITY, (len(JOINTS), 1))
-    pos, _ = HUMANOID.forward_kinematics(np.zeros(3), quat.IDENTITY, rest)
-    sole = pos[HUMANOID.names.index("right_ankle"), 1] - SOLE_BELOW_ANKLE
-    return float((centre_of_mass(np.zeros(3), quat.IDENTITY, rest)[1] - sole) / standing_height())
+    skel = figure.skeleton
+    pos, _ = skel.forward_kinematics(np.zeros(3), quat.IDENTITY, rest)
+    height = standing_height(figure)
+    sole = pos[skel.names.index("head_top"), 1] - height
+    return float((centre_of_mass(np.zeros(3), quat.IDENTITY, rest, figure)[1] - sole) / height)

@@ -29,6 +29,7 @@ class CharacterSnapshot:
     ``d_front`` / ``d_side`` are the paper's travelled distances (eqs. 6–7), metres.
     ``behaviour`` is B, the animation behaviour the AI picks (e.g. "walk", "stand_up");
     ``intent`` is what the AI is doing (e.g. "wander", "flee").
+    ``kind`` and ``balance_load`` were added later (defaults keep older constructors working).
     """
 
     name: str
@@ -46,6 +47,8 @@ class CharacterSnapshot:
     face_up: bool | None  # when lying: True face up, False face down; None otherwise
     contact_force_n: float  # largest force a person applied on it during the last step
     height: float  # metres, from the character spec (for drawing)
+    kind: str = ""  # the character spec's name (e.g. "walker", "critter"): which figure to draw
+    balance_load: float = 0.0  # 0 balanced … ≥ 1 beyond what its bounded controller can recover (inf: down)
 
 
 @dataclass(frozen=True, slots=True)

@@ -10,17 +10,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from render.default_set import build_default_set
-from render.interp import AXES, PERIODIC, Curve
+from render.default_set import build_default_sets
+from render.interp import STANDARD_AXES as AXES
+from render.interp import Curve
 from render.keyframes import KeyframeError, KeyframeQuery, KeyframeSet, Pose, query_from_snapshot
 from sim.snapshot import CharacterSnapshot, CharacterState
 
 SHIPPED = Path(__file__).resolve().parent.parent / "configs" / "keyframes" / "humanoid" / "keyframes.toml"
+PERIODIC = (False, False, True, True)
 
 
-@pytest.fixture(scope="module")
-def kset() -> KeyframeSet:
-    return KeyframeSet.load(SHIPPED)
+@pytest.fixture(scope="module", params=["humanoid", "critter"])
+def kset(request: pytest.FixtureRequest) -> KeyframeSet:
+    return KeyframeSet.load(SHIPPED.parent.parent / request.param / "keyframes.toml")
 
 
 def angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -53,7 +55,7 @@ def key_pose(kset: KeyframeSet, curve: Curve, slot: int, q: np.ndarray) -> Pose:
     """What key ``slot`` of an animation stores at queries q: its pose, or the referenced family's pose."""
     key = curve.keys[slot]
     if isinstance(key, str):
-        weights = kset.interpolator.family_weights(kset.families[key], q, {})[0]
+        weights = kset.family_weights(key, q)
     else:
         weights = np.zeros((len(q), len(kset.key_names)))
         weights[:, key] = 1.0
@@ -63,22 +65,25 @@ def key_pose(kset: KeyframeSet, curve: Curve, slot: int, q: np.ndarray) -> Pose:
 # ------------------------------------------------------------------------------ the shipped set
 
 
-def test_shipped_set_is_what_the_builder_makes(tmp_path: Path) -> None:
-    manifest = build_default_set(tmp_path)
-    shipped = SHIPPED.parent
+def test_shipped_sets_are_what_the_builder_makes(tmp_path: Path) -> None:
+    manifests = build_default_sets(tmp_path)
+    shipped = SHIPPED.parent.parent
     made = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*.toml"))
     assert made == sorted(p.relative_to(shipped) for p in shipped.rglob("*.toml"))
     for rel in made:
         assert (tmp_path / rel).read_bytes() == (shipped / rel).read_bytes(), (
-            f"{rel} is stale: rerun render.default_set"
+            f"{rel} is stale: rerun `jostle keyframes build-default`"
         )
-    assert manifest == tmp_path / "keyframes.toml"
+    assert manifests == [tmp_path / "humanoid" / "keyframes.toml", tmp_path / "critter" / "keyframes.toml"]
 
 
-def test_shipped_set_has_walk_falls_and_get_ups(kset: KeyframeSet) -> None:
+def test_shipped_set_has_walk_staggers_falls_and_get_ups(kset: KeyframeSet) -> None:
     names = {a.name for a in kset.animations}
     assert {"walk_dx000", "fall_forward", "fall_backward", "fall_right", "fall_left"} <= names
+    assert {"stagger_forward", "stagger_backward", "stagger_right", "stagger_left"} <= names
     assert {"stand_up_faceup", "stand_up_facedown"} <= names
+    # at least the paper's set: 12 one-dimensional animations, 57 keyframes
+    assert len(kset.animations) >= 12 and sum(len(a.coords) for a in kset.animations) >= 57
     assert kset.behaviours == ("stand_up", "walk") and kset.default_behaviour == "walk"
     walk = kset.families["walk"]
     assert walk.loft == AXES.index("dx") and all(len(m.coords) == 8 for m in walk.members)
@@ -92,7 +97,7 @@ def test_exact_at_every_key(kset: KeyframeSet) -> None:
     for curve in kset.animations:
         for slot, x in enumerate(curve.coords):
             q = on_curve(curve, np.full(5, x), rng)
-            got = kset.pose_from_weights(kset.weights_array(q, [curve.behaviour] * len(q)))
+            got = kset.evaluate(q, [curve.behaviour] * len(q))
             want = key_pose(kset, curve, slot, q)
             rot, off = pose_change(got, want)
             assert rot.max() < 1e-7 and off.max() < 1e-9, f"{curve.name} key {slot} ({AXES[curve.axis]}={x})"
@@ -132,20 +137,29 @@ def test_no_overshoot_between_neighbouring_keys(kset: KeyframeSet) -> None:
 
 
 def test_blends_stay_within_the_keys_they_blend(kset: KeyframeSet) -> None:
-    """Anywhere in Q a rotation is no farther from any key it blends than those keys are from each other."""
+    """Anywhere in Q a rotation is no farther from any key it blends than those keys are from each other,
+    measured on the unit quaternions as blended: signed to agree with the heaviest key (distances on the
+    sign-blind rotation angle can be shorter for rotations near a half turn apart)."""
     rng = np.random.default_rng(4)
     n = 400
     q = np.column_stack(
         [rng.uniform(-2, 2, n), rng.uniform(-2, 2, n), rng.uniform(0, 1, n), rng.uniform(0, 1, n)]
     )
+
+    def arc(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return 2.0 * np.arcsin(np.clip(np.linalg.norm(a - b, axis=-1) / 2.0, 0.0, 1.0))
+
     for behaviour in kset.behaviours:
         w = kset.weights_array(q, [behaviour] * n)
         got = kset.pose_from_weights(w).rotations()
         for k in range(n):
             used = np.nonzero(w[k] > 0)[0]
+            ref = kset.key_rotations[np.argmax(w[k])]
             keys = kset.key_rotations[used]  # (U, 1 + J, 4)
-            diameter = angles(keys[:, None], keys[None, :]).max(axis=(0, 1))  # per joint
-            assert np.all(angles(got[k][None], keys) <= diameter[None] + 1e-9)
+            keys = np.where(np.sum(keys * ref, axis=-1, keepdims=True) < 0, -keys, keys)
+            blended = np.where(np.sum(got[k] * ref, axis=-1, keepdims=True) < 0, -got[k], got[k])
+            diameter = arc(keys[:, None], keys[None, :]).max(axis=(0, 1))  # per joint
+            assert np.all(arc(blended[None], keys) <= diameter[None] + 1e-9)
 
 
 def test_periodic_in_dx_and_dz(kset: KeyframeSet) -> None:
@@ -210,7 +224,7 @@ def test_one_query_and_a_batch_agree(kset: KeyframeSet) -> None:
 
 
 def test_unknown_behaviour_falls_back_to_the_default_once(kset: KeyframeSet) -> None:
-    fresh = KeyframeSet.load(SHIPPED)
+    fresh = KeyframeSet.load(kset.source or SHIPPED)
     q = KeyframeQuery(0.2, 0.0, 0.0, 0.3, "juggle")
     with pytest.warns(UserWarning, match="juggle"):
         got = fresh.pose(q)

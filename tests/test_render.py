@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import subprocess
@@ -17,7 +18,7 @@ from PIL import Image, ImageSequence
 from interaction.types import BodyObservation, Contactor
 from render.draw import Renderer
 from render.keyframes import KeyframeSet
-from render.scene import Camera
+from render.style import Camera
 from render.video import VideoError, VideoOut, save_gif
 from sim.snapshot import CharacterSnapshot, CharacterState, WorldSnapshot
 
@@ -232,3 +233,116 @@ def test_gif(tmp_path: Path) -> None:
     assert len(pictures) == 3 and pictures[0].shape == (20, 30, 3)
     assert pictures[0][5, 5].tolist() == [0, 0, 0]
     assert pictures[1][5, 5, 0] > 200 and pictures[1][5, 5, 2] < 50  # red: BGR in, RGB in the file
+
+
+# ------------------------------------------------------------------------------ people, flashes, HUD, critter
+
+
+def test_silhouette_is_drawn_on_the_stage_where_the_calibration_puts_it(renderer: Renderer, kset: KeyframeSet) -> None:
+    from interaction.calibration import Calibration
+
+    # a 160×120 camera image covering stage x ∈ [−1, 1], z ∈ [2, 0] (rows top to bottom) on the plane y = 0.5
+    calib = Calibration.from_correspondences(
+        np.array([(0, 0), (160, 0), (160, 120), (0, 120)], dtype=float),
+        np.array([(-1.0, 2.0), (1.0, 2.0), (1.0, 0.0), (-1.0, 0.0)]),
+        plane_y=0.5,
+    )
+    mask = np.zeros((120, 160), np.uint8)
+    mask[:, :80] = 255  # the person fills the image's left half: stage x ∈ [−1, 0]
+    plain = renderer.draw(world(), None, kset)
+    frame = renderer.draw(world(), None, kset, silhouette=mask, silhouette_calibration=calib)
+    diff = changed(frame, plain)
+    r0, r1, c0, c1 = pixel_box((-1.0, 0.5, 0.0), (0.0, 0.5, 2.0), margin=0)
+    assert diff[r0 + 2 : r1 - 2, c0 + 2 : c1 - 2].mean() > 0.95
+    assert outside(diff, pixel_box((-1.0, 0.5, 0.0), (0.0, 0.5, 2.0), margin=2)) == 0
+    # a character standing in front of the plane hides it; one behind it is tinted by it
+    front = renderer.draw(world(character(x=-0.5, y=-0.5)), None, kset, silhouette=mask, silhouette_calibration=calib)
+    front_plain = renderer.draw(world(character(x=-0.5, y=-0.5)), None, kset)
+    body = changed(front_plain, plain)
+    assert changed(front, front_plain)[body].mean() < 0.05
+
+
+def test_a_flash_where_a_contact_lands_then_fades(kset: KeyframeSet) -> None:
+    from render.style import Look, RenderStyle
+
+    hand = BodyObservation(t=0.0, contactors=(Contactor(0, "hand", (0.45, 0.0, 1.1), (0.0, 0.0, 0.0), 0.12),))
+    with Renderer(W, H, style=RenderStyle(look=Look(flash_s=0.3))) as r:
+        calm = r.draw(world(character(force=0.0)), hand, kset)
+        hit = r.draw(dataclasses.replace(world(character(force=40.0)), t=0.05), hand, kset)
+        later = r.draw(dataclasses.replace(world(character(force=40.0)), t=0.5), hand, kset)
+    glow = (hit.astype(int) - calm.astype(int)).clip(0).sum(axis=2)
+    r0, r1, c0, c1 = pixel_box((0.1, -0.3, 0.8), (0.8, 0.3, 1.4), margin=2)
+    near = glow[r0:r1, c0:c1]
+    assert (near > 120).sum() > 20  # a bright flash around the contact
+    lit_then = (hit.astype(int) - later.astype(int)).clip(0).sum(axis=2)[r0:r1, c0:c1]
+    assert (lit_then > 120).sum() > 20  # gone 0.45 s later (the red tint of the push stays)
+
+
+def test_hud_shows_the_figures(kset: KeyframeSet) -> None:
+    from render.style import Look, RenderStyle
+
+    with Renderer(W, H, style=RenderStyle(look=Look(hud=True))) as r:
+        with_hud = r.draw(world(character()), None, kset)
+    with Renderer(W, H) as r:
+        without = r.draw(world(character()), None, kset)
+    diff = changed(with_hud, without)
+    assert diff[:40, :150].mean() > 0.3 and not diff[80:, :].any()
+
+
+def test_the_critter_is_drawn_small_with_its_own_set(renderer: Renderer, kset: KeyframeSet) -> None:
+    critter = KeyframeSet.load(SHIPPED.parent.parent / "critter" / "keyframes.toml")
+    empty = renderer.draw(world(), None, kset)
+    tall = changed(renderer.draw(world(character()), None, kset), empty)
+    small = dataclasses.replace(character(), height=0.8, position=(0.0, 0.0, 0.4))
+    short = changed(renderer.draw(world(small), None, {"*": critter}), empty)
+    rows_tall, rows_short = np.nonzero(tall.any(axis=1))[0], np.nonzero(short.any(axis=1))[0]
+    span_tall, span_short = rows_tall.max() - rows_tall.min(), rows_short.max() - rows_short.min()
+    assert 0.4 < span_short / span_tall < 0.7  # 0.8 m against 1.5 m, shadows included
+    assert abs(int(rows_short.max()) - int(rows_tall.max())) <= 4  # both stand on the floor
+
+
+def test_bench_render_reports_its_figures() -> None:
+    from jostle.bench_cli import main_json
+
+    figures = main_json("render", ["--characters", "6", "--width", "160", "--height", "90", "--frames", "4"])
+    for key in ("characters", "width", "height", "fps", "frame_ms_p50", "frame_ms_p99", "pose_eval_us_per_character"):
+        assert key in figures
+    assert figures["characters"] == 6 and figures["fps"] > 0 and figures["pose_eval_us_per_character"] > 0
+
+
+def test_a_smaller_render_scale_draws_the_same_picture_softer(kset: KeyframeSet) -> None:
+    from render.style import Look, RenderStyle
+
+    snap = world(character(x=-1.0), character("bob", x=1.2, y=0.5, heading=2.5))
+    with Renderer(W, H, style=RenderStyle(look=Look(render_scale=0.5))) as r:
+        half = r.draw(snap, None, kset)
+        empty_half = r.draw(world(), None, kset)
+    with Renderer(W, H) as r:
+        full = r.draw(snap, None, kset)
+        empty_full = r.draw(world(), None, kset)
+    assert half.shape == full.shape == (H, W, 3)
+    a, b = changed(half, empty_half), changed(full, empty_full)
+    overlap = (a & b).sum() / max(1, (a | b).sum())
+    assert overlap > 0.75  # the same figures in the same places, edges softer
+
+
+def test_style_errors_name_the_field() -> None:
+    from render.style import Colours, Look
+
+    with pytest.raises(ValueError, match=r"^eye: expected 3 finite numbers"):
+        Camera(eye=(0.0, 1.0))
+    with pytest.raises(ValueError, match=r"^floor: expected a colour like"):
+        Colours(floor="red")
+    with pytest.raises(ValueError, match=r"^people\[1\]: expected a colour like"):
+        Colours(people=("#ffffff", "#12345"))
+    with pytest.raises(ValueError, match=r"^render_scale: expected 0.25 to 1"):
+        Look(render_scale=2.0)
+
+
+def test_sets_are_chosen_by_name_then_kind(renderer: Renderer, kset: KeyframeSet) -> None:
+    critter = KeyframeSet.load(SHIPPED.parent.parent / "critter" / "keyframes.toml")
+    small = dataclasses.replace(character("tiny"), height=0.8, position=(0.0, 0.0, 0.4), kind="critter")
+    by_kind = renderer.draw(world(small), None, {"critter": critter, "*": kset})
+    explicit = renderer.draw(world(small), None, {"tiny": critter})
+    default = renderer.draw(world(small), None, {"*": kset})
+    assert np.array_equal(by_kind, explicit) and not np.array_equal(by_kind, default)
