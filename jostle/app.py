@@ -119,14 +119,24 @@ class App:
         recordings = [str(e.config.path) for e in cfg.sensors if _is_replay(e.config)]
         self.summary.recording = ", ".join(recordings) if recordings else None
 
-        keyframes = KeyframeSet.load(cfg.render.keyframes)
+        keyframes = self._keyframe_sets(KeyframeSet)
         world = World(cfg.world, np.random.default_rng(self.seed))
         renderer = None
         video = None
         out_dir = opts.out_dir
         try:
             self.summary.characters = place_characters(cfg, world, self.seed)
-            renderer = Renderer(cfg.render.width, cfg.render.height, headless=(opts.mode == "headless"))
+            from render.style import RenderStyle
+
+            renderer = Renderer(
+                cfg.render.width,
+                cfg.render.height,
+                headless=(opts.mode == "headless"),
+                fullscreen=(opts.mode == "kiosk"),
+                style=RenderStyle(camera=cfg.render.camera, colours=cfg.render.colours, look=cfg.render.look),
+                stage_x=(cfg.world.x_min, cfg.world.x_max),
+                com_fraction={g.spec.name: g.spec.com_height / g.spec.height for g in cfg.characters} or 0.5,
+            )
             if out_dir is not None:
                 out_dir.mkdir(parents=True, exist_ok=True)
                 if opts.video:
@@ -150,13 +160,29 @@ class App:
                 self.summary.write(out_dir / "summary.json")
         return self.summary
 
+    def _keyframe_sets(self, loader: type[KeyframeSet]) -> dict[str, KeyframeSet]:
+        """One keyframe set per character kind (the spec's name), "*" for the default; each file read once."""
+        cfg = self.config
+        loaded: dict[Path, KeyframeSet] = {}
+
+        def load(path: Path) -> KeyframeSet:
+            if path not in loaded:
+                loaded[path] = loader.load(path)
+            return loaded[path]
+
+        sets = {"*": load(cfg.render.keyframes)}
+        for group in cfg.characters:
+            if group.keyframes is not None:
+                sets[group.spec.name] = load(group.keyframes)
+        return sets
+
     def _loop(
         self,
         sensors: dict[str, Sensor],
         observers: dict[str, tuple[str, Observer]],
         world: World,
         renderer: Renderer,
-        keyframes: KeyframeSet,
+        keyframes: dict[str, KeyframeSet],
         video: VideoOut | None,
     ) -> None:
         cfg = self.config
@@ -170,6 +196,12 @@ class App:
         bar = Progress(total, "jostle run", "sim s", enabled=opts.progress)
         spent = self.stage_seconds
         fusion = SensorFusion()  # a person seen by two sensors is pushed once
+        silhouette_calibration = None
+        for _, observer in observers.values():
+            calibration = getattr(observer, "calibration", None)
+            if calibration is not None and hasattr(observer, "silhouette"):
+                silhouette_calibration = calibration
+                break
         t = self.clock.now()
         t0 = t
         try:
@@ -208,7 +240,7 @@ class App:
                 silhouette = next(iter(silhouettes.values()), None) if cfg.render.show_silhouette else None
                 mark = clock()
                 image = renderer.draw(snap, observation if cfg.render.show_contactors else None, keyframes,
-                                      silhouette=silhouette)
+                                      silhouette=silhouette, silhouette_calibration=silhouette_calibration)
                 spent["draw"] += clock() - mark
                 self.summary.frames_rendered += 1
                 if video is not None:
@@ -218,6 +250,9 @@ class App:
                 if self.on_frame is not None:
                     self.on_frame(snap, observation, image)
                 bar.update(dt)
+                if renderer.should_close:
+                    self.summary.stopped_because = "window closed"
+                    break
                 elapsed = now - t0
                 if duration and elapsed >= duration - 1e-9:
                     self.summary.stopped_because = f"duration {duration:g} s reached"

@@ -22,6 +22,7 @@ from typing import Any, Literal
 
 from jostle.configtree import ConfigError, build
 from jostle.observers import observer_types
+from render.style import Camera, Colours, Look
 from sensors.registry import SENSOR_TYPES
 from sim.config import CharacterSpec, WorldConfig
 
@@ -45,12 +46,15 @@ class RunConfig:
 
 @dataclass(frozen=True)
 class RenderConfig:
-    keyframes: Path
+    keyframes: Path  # the default keyframe set; a [[characters]] group may name its own
     width: int = 1280
     height: int = 720
     fps: float = 30.0
     show_silhouette: bool = True
     show_contactors: bool = True
+    camera: Camera = field(default_factory=Camera)  # [render.camera]: eye, target, fov_y_deg, …
+    colours: Colours = field(default_factory=Colours)  # [render.colours]: "#rrggbb" per part of the scene
+    look: Look = field(default_factory=Look)  # [render.look]: hud, shadows, flash, opacity, samples
 
     def __post_init__(self) -> None:
         if not (16 <= self.width <= 7680 and 16 <= self.height <= 4320):
@@ -83,6 +87,7 @@ class CharacterGroup:
     count: int
     intent: str
     source: Path
+    keyframes: Path | None = None  # this group's keyframe set; None: [render] keyframes
 
 
 @dataclass(frozen=True)
@@ -198,7 +203,8 @@ def load_config(path: str | Path) -> JostleConfig:
         group = build(_GroupTable, entry, source=source, key=key, base_dir=base)
         spec_doc = load_toml(group.spec)
         spec = build(CharacterSpec, spec_doc, source=str(group.spec), key="", base_dir=group.spec.parent)
-        groups.append(CharacterGroup(spec, group.count, group.intent, group.spec))
+        groups.append(CharacterGroup(spec, group.count, group.intent, group.spec,
+                                     None if group.keyframes == Path() else group.keyframes))
 
     render = build(RenderConfig, _table(doc, "render", source), source=source, key="render", base_dir=base)
     return JostleConfig(path, run, tuple(sensors), tuple(observers), world, tuple(groups), render, doc)
@@ -209,9 +215,12 @@ class _GroupTable:
     spec: Path
     count: int = 1
     intent: Literal["idle", "wander", "approach", "flee"] = "wander"
+    keyframes: Path = Path()  # this group's keyframe set (default: [render] keyframes)
 
     def __post_init__(self) -> None:
         if not 0 <= self.count <= 1000:
             raise ValueError(f"count: expected 0 to 1000, got {self.count}")
         if not self.spec.exists():
             raise ValueError(f"spec: no such character file {self.spec}")
+        if self.keyframes != Path() and not self.keyframes.exists():
+            raise ValueError(f"keyframes: no such keyframe set {self.keyframes}")

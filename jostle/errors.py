@@ -22,6 +22,6 @@ def user_facing(e: BaseException) -> str | None:
     if isinstance(e, IsADirectoryError):
         return f"{e.filename}: is a folder, expected a file"
     name = type(e).__name__
-    if name in ("KeyframeError", "KeyframeFileError", "RenderUnavailable", "CalibrationError", "VideoError"):
+    if name in ("KeyframeError", "KeyframeFileError", "RendererUnavailable", "CalibrationError", "VideoError"):
         return str(e)
     return None
