@@ -12,6 +12,8 @@ from dataclasses import dataclass, fields
 
 from sim.stepping import compute_n_substeps
 
+INTENTS = ("idle", "wander", "approach", "flee", "follow")
+
 
 def _check_positive(obj: object, *names: str) -> None:
     for name in names:
@@ -44,7 +46,9 @@ class WorldConfig:
     """
 
     physics_dt: float = 1.0 / 240.0
-    control_dt: float = 1.0 / 60.0
+    # controller, state machine and AI: one tick per rendered frame at 30 fps, 8 physics steps in between
+    # (``jostle bench sim``: the per-character pybullet calls of a tick cost more than its physics step)
+    control_dt: float = 1.0 / 30.0
     max_catchup_ticks: int = 8
     gravity: float = 9.81
     floor_friction: float = 0.8  # μ between a body and the floor (bounds the legs' friction force too)
@@ -64,19 +68,27 @@ class WorldConfig:
     max_contactor_radius: float = 1.0  # m; radii/half-depths are clamped to this
     max_impulse_force_n: float = 3000.0  # pad forces are clamped to this magnitude
     max_impulse_duration_s: float = 0.5
+    max_impulse_ns: float = 300.0  # pad pushes and strikes carry at most this much momentum (N·s)
+    max_character_speed: float = 20.0  # m/s; a body found faster (stacked pushes, solver trouble) is slowed
+    max_character_spin: float = 40.0  # rad/s, likewise
     stage_escape_margin: float = 1.5  # a character this far outside the stage is put back on it
     stuck_timeout_s: float = 30.0  # fallen this long without standing up again: put back upright
+    # Contact solver iterations per physics step (pybullet's default is 50). One body on a floor and the
+    # odd neighbour need few; the cost of the step grows with them.
+    solver_iterations: int = 10
 
     def __post_init__(self) -> None:
         _check_finite(self)
         _check_positive(self, "physics_dt", "control_dt", "gravity", "contact_episode_gap_s",
                         "max_contactor_speed", "max_contactor_radius", "max_impulse_force_n",
-                        "max_impulse_duration_s", "stuck_timeout_s")
+                        "max_impulse_duration_s", "max_impulse_ns", "stuck_timeout_s", "max_character_speed",
+                        "max_character_spin")
         _check_non_negative(self, "floor_friction", "contactor_hold_s", "contactor_friction",
                             "stage_escape_margin", "contactor_stiffness", "contactor_damping")
-        if isinstance(self.max_catchup_ticks, bool) or not isinstance(self.max_catchup_ticks, int) \
-                or self.max_catchup_ticks < 1:
-            raise ValueError(f"max_catchup_ticks: expected an integer >= 1, got {self.max_catchup_ticks!r}")
+        for name in ("max_catchup_ticks", "solver_iterations"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name}: expected an integer >= 1, got {value!r}")
         compute_n_substeps(self.control_dt, self.physics_dt)
         if not self.x_min < self.x_max:
             raise ValueError(f"x_max: expected > x_min={self.x_min}, got {self.x_max}")
@@ -126,7 +138,7 @@ class CharacterSpec:
     leg_force_max: float = 160.0
     yaw_torque_max: float = 40.0
     yaw_frequency: float = 4.0  # rad/s, critically damped heading PD
-    lqr_tilt_scale_deg: float = 4.0
+    lqr_tilt_scale_deg: float = 6.0
     lqr_rate_scale: float = 1.0
     lqr_speed_scale: float = 0.4
     # state machine
@@ -153,6 +165,12 @@ class CharacterSpec:
     flee_duration_s: float = 2.5
     wander_pause_s: float = 1.5
     stage_margin: float = 0.3
+    # reactions and temperament (added with the vectorised model; all optional)
+    pivot_damping: float = 0.5  # 1/s: a pushed character lets the push turn it (it pivots); spin decays at this rate
+    pivot_s: float = 1.5  # s after the last push during which it pivots (then it turns back to its goal)
+    waypoints: tuple[float, ...] = ()  # x0, y0, x1, y1, ... stage metres: the loop intent "follow" walks
+    after_fall_intent: str = ""  # intent for after_fall_s once it stood up again ("" = its own intent)
+    after_fall_s: float = 6.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
@@ -166,7 +184,14 @@ class CharacterSpec:
                         "lie_duration_s", "getup_duration_s", "getup_torque_max", "getup_frequency",
                         "upright_tilt_deg", "brake_rate", "walk_speed", "flee_speed",
                         "approach_distance", "personal_space", "flee_duration_s")
-        _check_non_negative(self, "recover_hold_s", "still_hold_s", "wander_pause_s", "stage_margin")
+        _check_non_negative(self, "recover_hold_s", "still_hold_s", "wander_pause_s", "stage_margin",
+                            "pivot_damping", "pivot_s", "after_fall_s")
+        if len(self.waypoints) % 2 or not all(isinstance(v, int | float) and math.isfinite(v)
+                                              for v in self.waypoints):
+            raise ValueError(f"waypoints: expected finite x, y pairs (an even count of numbers), got {self.waypoints!r}")
+        if self.after_fall_intent not in ("", *INTENTS):
+            raise ValueError(f"after_fall_intent: expected \"\" or one of {', '.join(INTENTS)}, "
+                             f"got {self.after_fall_intent!r}")
         if not self.com_height < self.height:
             raise ValueError(f"com_height: expected < height={self.height}, got {self.com_height}")
         if not self.widest_height < self.height:

@@ -53,7 +53,8 @@ def _limit(v: Vec3, bound: float) -> tuple[Vec3, bool]:
 
 
 def clean_observation(obs: BodyObservation, config: WorldConfig) -> CleanedObservation:
-    rejected = clamped = 0
+    rejected = 0
+    clamped = 0
     contactors: list[SafeContactor] = []
     for c in obs.contactors:
         if not _finite(c.position) or max(abs(v) for v in c.position) > _FAR_M \
@@ -78,15 +79,28 @@ def clean_observation(obs: BodyObservation, config: WorldConfig) -> CleanedObser
         contactors.append(SafeContactor(int(c.person), pos, velocity, radius, float(half_depth)))
     impulses: list[SafeImpulse] = []
     for i in obs.impulses:
-        if not _finite(i.position) or max(abs(v) for v in i.position) > _FAR_M or not _finite(i.force) \
-                or not isinstance(i.duration, int | float) or not math.isfinite(i.duration) or i.duration <= 0.0:
+        push = clean_push(i.force, i.duration, config)
+        if push is None or not _finite(i.position) or max(abs(v) for v in i.position) > _FAR_M:
             rejected += 1
             continue
-        force, cut = _limit(i.force, config.max_impulse_force_n)
-        clamped += cut
-        duration = float(i.duration)
-        if duration > config.max_impulse_duration_s:
-            duration, clamped = config.max_impulse_duration_s, clamped + 1
+        force, duration, cuts = push
+        clamped += cuts
         pos = (float(i.position[0]), float(i.position[1]), float(i.position[2]))
         impulses.append(SafeImpulse(pos, force, duration, str(i.source)))
     return CleanedObservation(tuple(contactors), tuple(impulses), rejected, clamped)
+
+
+def clean_push(force: Vec3, duration: float, config: WorldConfig) -> tuple[Vec3, float, int] | None:
+    """A force held for ``duration`` made safe: None when unusable (non-finite, duration ≤ 0), else the
+    force and duration within ``max_impulse_force_n`` / ``max_impulse_duration_s`` / ``max_impulse_ns``
+    and how many of those limits cut it."""
+    if not _finite(force) or not isinstance(duration, int | float) or not math.isfinite(duration) \
+            or duration <= 0.0:
+        return None
+    safe, cut = _limit(force, config.max_impulse_force_n)
+    clamped = int(cut)
+    duration = float(duration)
+    if duration > config.max_impulse_duration_s:
+        duration, clamped = config.max_impulse_duration_s, clamped + 1
+    safe, cut = _limit(safe, config.max_impulse_ns / duration)
+    return safe, duration, clamped + int(cut)

@@ -48,7 +48,7 @@ class CharacterSnapshot:
     contact_force_n: float  # largest force a person applied on it during the last step
     height: float  # metres, from the character spec (for drawing)
     kind: str = ""  # the character spec's name (e.g. "walker", "critter"): which figure to draw
-    balance_load: float = 0.0  # 0 balanced … ≥ 1 beyond what its bounded controller can recover (inf: down)
+    balance_load: float = 0.0  # 0 balanced … ≥ 1 beyond what its bounded controller can recover (10: down)
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,4 +1,4 @@
-"""The control state machine (Mitake et al. 2009, Figure 3), pure of pybullet.
+"""The control state machine (Mitake et al. 2009, Figure 3), for every character at once, pure of pybullet.
 
     WALK ──load ≥ stagger──▶ STAGGER ──load < recover for recover_hold_s──▶ WALK
       │                         │
@@ -9,8 +9,9 @@
                                       │ knocked over (tilt far above its reference) or too slow
                                       └──▶ FALL
 
-"load" is ``BalanceDesign.balance_load``: whether the *bounded* controller can still bring the body
-back (capture-point criterion), not a fixed angle.
+"load" is ``Crowd.balance_load``: whether the *bounded* controller can still bring the body back
+(capture-point criterion, ``sim.balance``), not a fixed angle. Lying face up or face down is decided
+when the body comes to rest (the body's face axis up or down).
 """
 
 from __future__ import annotations
@@ -18,8 +19,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from sim.config import CharacterSpec
-from sim.snapshot import CharacterState
+import numpy as np
+from numpy.typing import NDArray
+
+from sim.crowd import BRAKE, FALL, LIE, STAGGER, STAND_UP, WALK, Crowd
+
+Array = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
 
 FALL_TIMEOUT_S = 3.0  # a fall that never reaches the ground (leaning on someone) brakes anyway
 STAND_UP_ABORT_RAD = math.radians(30.0)  # tilt this far above the stand-up reference: knocked over
@@ -27,76 +33,92 @@ STAND_UP_GRACE_S = 0.3
 STAND_UP_SLACK_S = 3.0  # stand-up may take this much longer than getup_duration_s before giving up
 
 
+def smoothstep(u: Array) -> Array:
+    u = np.clip(u, 0.0, 1.0)
+    out: Array = u * u * (3.0 - 2.0 * u)
+    return out
+
+
+def stand_up_reference(start_tilt: Array, elapsed: Array, duration: Array) -> Array:
+    """The tilt the stand-up PD aims at ``elapsed`` seconds in: start_tilt → 0, smoothly."""
+    out: Array = start_tilt * (1.0 - smoothstep(elapsed / duration))
+    return out
+
+
 @dataclass(frozen=True, slots=True)
-class BalanceReading:
-    """What the state machine looks at, once per control tick."""
+class Readings:
+    """What the state machine looks at, once per control tick (one entry per character)."""
 
-    load: float  # balance load, 0 upright and still, ≥ 1 beyond the bounded controller
-    tilt: float  # radians between the body axis and vertical
-    speed: float  # m/s of the centre of mass
-    spin: float  # rad/s
-    face_up: bool  # the body's face axis points up
-    stand_up_error: float = 0.0  # radians of tilt above the stand-up reference (STAND_UP only)
+    load: Array  # balance load, 0 upright and still, ≥ 1 beyond the bounded controller
+    tilt: Array  # radians between the body axis and vertical
+    speed: Array  # m/s of the centre of mass
+    spin: Array  # rad/s
+    face_up: BoolArray  # the body's face axis points up
+    stand_up_error: Array  # radians of tilt above the stand-up reference (used in STAND_UP only)
 
 
-class StateMachine:
-    def __init__(self, spec: CharacterSpec, t: float = 0.0) -> None:
-        self._spec = spec
-        self.state = CharacterState.WALK
-        self.entered = t
-        self.face_up: bool | None = None
-        self._since: float | None = None  # start of the calm/still stretch being timed
+def quiet(crowd: Crowd, load: Array) -> bool:
+    """True when no machine can change this tick: everyone walking, nobody near staggering."""
+    return bool((crowd.state == WALK).all() and (load < crowd.cols.stagger_ratio).all())
 
-    def force(self, state: CharacterState, t: float) -> None:
-        """Put the machine in ``state`` (recovery after a reset), without reporting a change."""
-        self.state, self.entered, self._since = state, t, None
-        if state not in (CharacterState.LIE, CharacterState.STAND_UP):
-            self.face_up = None
 
-    def _held(self, condition: bool, t: float, hold: float) -> bool:
-        if not condition:
-            self._since = None
-            return False
-        if self._since is None:
-            self._since = t
-        return t - self._since >= hold - 1e-9
+def readings(crowd: Crowd, t: float, load: Array | None = None) -> Readings:
+    f, c = crowd.frames, crowd.cols
+    reference = stand_up_reference(crowd.stand_up_start, t - crowd.entered, c.getup_duration_s)
+    return Readings(
+        load=crowd.balance_load() if load is None else load,
+        tilt=f.tilt,
+        speed=np.sqrt(np.sum(crowd.vel * crowd.vel, axis=1)),
+        spin=np.sqrt(np.sum(crowd.ang * crowd.ang, axis=1)),
+        face_up=f.face_up,
+        stand_up_error=f.tilt - reference,
+    )
 
-    def update(self, t: float, r: BalanceReading) -> tuple[CharacterState, CharacterState] | None:
-        """Advance one tick; returns (before, after) when the state changed."""
-        s, spec = self.state, self._spec
-        S = CharacterState
-        nxt = s
-        in_state = t - self.entered
-        if s in (S.WALK, S.STAGGER):
-            if r.load >= spec.fall_ratio:
-                nxt = S.FALL
-            elif s is S.WALK and r.load >= spec.stagger_ratio:
-                nxt = S.STAGGER
-            elif s is S.STAGGER and self._held(r.load < spec.recover_ratio, t, spec.recover_hold_s):
-                nxt = S.WALK
-        elif s is S.FALL:
-            if r.tilt >= math.radians(spec.ground_tilt_deg) or in_state >= FALL_TIMEOUT_S:
-                nxt = S.BRAKE
-        elif s is S.BRAKE:
-            still = r.speed < spec.still_speed and r.spin < spec.still_rate
-            if self._held(still, t, spec.still_hold_s):
-                nxt = S.LIE
-        elif s is S.LIE:
-            if r.speed > 3.0 * spec.still_speed or r.spin > 3.0 * spec.still_rate:
-                nxt = S.BRAKE
-            elif in_state >= spec.lie_duration_s:
-                nxt = S.STAND_UP
-        elif s is S.STAND_UP:
-            if r.tilt < math.radians(spec.upright_tilt_deg) and r.load < spec.stagger_ratio:
-                nxt = S.WALK
-            elif (in_state > STAND_UP_GRACE_S and r.stand_up_error > STAND_UP_ABORT_RAD) or \
-                    in_state > spec.getup_duration_s + STAND_UP_SLACK_S:
-                nxt = S.FALL
-        if nxt is s:
-            return None
-        self.state, self.entered, self._since = nxt, t, None
-        if nxt is S.LIE:
-            self.face_up = r.face_up
-        elif nxt is not S.STAND_UP:
-            self.face_up = None
-        return s, nxt
+
+def _held(crowd: Crowd, rows: BoolArray, condition: BoolArray, t: float, hold: Array) -> BoolArray:
+    """For ``rows``: time ``condition`` (restarting when it breaks); True once it held for ``hold``."""
+    since = crowd.since
+    start = np.where(np.isnan(since), t, since)
+    crowd.since = np.where(rows, np.where(condition, start, math.nan), since)
+    out: BoolArray = rows & condition & (t - crowd.since >= hold - 1e-9)
+    return out
+
+
+def advance(crowd: Crowd, r: Readings, t: float) -> list[tuple[int, int, int]]:
+    """Advance every character's machine one tick; returns (row, before, after) for each change."""
+    c = crowd.cols
+    s = crowd.state
+    in_state = t - crowd.entered
+    nxt = s.copy()
+    upright = s <= STAGGER
+    falls = upright & (r.load >= c.fall_ratio)
+    nxt[falls] = FALL
+    staggers = (s == WALK) & ~falls & (r.load >= c.stagger_ratio)
+    nxt[staggers] = STAGGER
+    staggering = (s == STAGGER) & ~falls
+    nxt[_held(crowd, staggering, r.load < c.recover_ratio, t, c.recover_hold_s)] = WALK
+    nxt[(s == FALL) & ((r.tilt >= c.ground_tilt) | (in_state >= FALL_TIMEOUT_S))] = BRAKE
+    braking = s == BRAKE
+    still = (r.speed < c.still_speed) & (r.spin < c.still_rate)
+    nxt[_held(crowd, braking, still, t, c.still_hold_s)] = LIE
+    lying = s == LIE
+    moved = (r.speed > 3.0 * c.still_speed) | (r.spin > 3.0 * c.still_rate)
+    nxt[lying & moved] = BRAKE
+    nxt[lying & ~moved & (in_state >= c.lie_duration_s)] = STAND_UP
+    rising = s == STAND_UP
+    done = rising & (r.tilt < c.upright_tilt) & (r.load < c.stagger_ratio)
+    nxt[done] = WALK
+    knocked = (in_state > STAND_UP_GRACE_S) & (r.stand_up_error > STAND_UP_ABORT_RAD)
+    nxt[rising & ~done & (knocked | (in_state > c.getup_duration_s + STAND_UP_SLACK_S))] = FALL
+    changed = np.flatnonzero(nxt != s)
+    if changed.size == 0:
+        return []
+    before = s[changed].tolist()
+    after = nxt[changed]
+    crowd.state = nxt
+    crowd.entered[changed] = t
+    crowd.since[changed] = math.nan
+    to_lie = changed[after == LIE]
+    crowd.face_up[to_lie] = r.face_up[to_lie].astype(np.int64)
+    crowd.face_up[changed[(after != LIE) & (after != STAND_UP)]] = -1
+    return list(zip(changed.tolist(), before, after.tolist(), strict=True))

@@ -1,39 +1,55 @@
 """The simulated world: pybullet (DIRECT), the floor, the characters and the people's contactors.
 
-``World.step(observation, dt)`` accumulates ``dt`` and runs whole control ticks. Each tick:
-AI → state machine and controller per character → contactors placed once (kinematic, with the
-people's velocity) → ``n_substeps`` physics steps of ``physics_dt``. The controller's force and torque
-are held over the tick (zero-order hold) but *re-applied before every substep*: the world calls
-``stepSimulation`` once per substep (no ``numSubSteps``), because pybullet clears external forces after
-each call and because contact impulses are read per substep (``getContactPoints`` only reports the
-last substep's manifold). Catch-up is capped at ``max_catchup_ticks``; the skipped time is reported.
+``World.step(observation, dt)`` accumulates ``dt`` and runs whole control ticks. Each tick, for all
+characters at once (``sim.crowd``): AI (``sim.ai``) → state machine (``sim.states``) → control law
+(``sim.control``), whose impulse is written into each body's velocities with one pybullet call; the
+contactors are placed once (kinematic, with the people's velocity); then ``n_substeps`` calls of
+``stepSimulation`` of ``physics_dt`` each (pads and strikes re-applied before each: pybullet clears
+external forces after every call; contact impulses are read per substep, since ``getContactPoints``
+only reports the last one); then one batched read of every body. Catch-up is capped at
+``max_catchup_ticks``; the skipped time is reported.
 
 Input: the contactors of the latest observation stand (moved along their velocity) for
 ``contactor_hold_s``; ``None`` means no new observation. Each pad ``Impulse`` is applied once, as a
-force for its duration at the nearest character; an identical impulse reported again while the first
-one is still acting is taken as the same report.
+force for its duration on the body axis of the nearest character; an identical impulse reported again
+while the first one is still acting is taken as the same report. ``strike`` applies a force at a chosen
+point of a chosen character (benchmarks, tests, scripted shows).
 """
 
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import pybullet as p
 
 from interaction.types import BodyObservation
-from sim.ai import CharacterAI, Stage, separation_velocities
+from sim.ai import Neighbours, Stage, decide, notice_push, on_stood_up, separation_velocities
 from sim.balance import BalanceDesign
-from sim.body import GROUP_FLOOR, MASK_FLOOR, CharacterBody, Kinematics
-from sim.character import UPRIGHT_STATES, Character
-from sim.config import CharacterSpec, WorldConfig
+from sim.body import create_body, create_shape, read_states, reset_body, set_friction, write_velocities
+from sim.character import CharacterView, snapshots, view
+from sim.config import INTENTS, CharacterSpec, WorldConfig
 from sim.contactors import ContactEpisodes, ContactorPool
+from sim.control import control
+from sim.crowd import FALL, STAGGER, STAND_UP, STATES, WALK, Crowd
 from sim.frames import Vec3, yaw_quaternion
-from sim.inputs import SafeContactor, SafeImpulse, clean_observation
-from sim.snapshot import CharacterSnapshot, ContactEvent, StateChange, WorldSnapshot
+from sim.inputs import SafeContactor, SafeImpulse, clean_observation, clean_push
+from sim.physics import open_client
+from sim.pushes import PAD_PERSON, Push, axis_offset, finished, tick_forces
+from sim.repair import free_spot, lost_characters, too_fast
+from sim.snapshot import ContactEvent, StateChange, WorldSnapshot
+from sim.states import advance, quiet, readings
 
-PAD_PERSON = -1  # ContactEvent.person for force-pad impulses (they carry no person id)
+__all__ = ["PAD_PERSON", "World", "WorldCounters"]
+
+_REACH_M = 5.0  # a strike's point of application lies within this distance of the centre of mass
+_SHAPE_FIELDS = ("height", "com_height", "widest_height", "half_depth", "half_width", "bottom_exponent",
+                 "top_exponent")
+_DESIGN_FIELDS = ("mass", "inertia", "com_height", "tau_max", "tau_max_side", "leg_force_max", "yaw_frequency",
+                  "lqr_tilt_scale_deg", "lqr_rate_scale", "lqr_speed_scale")
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,16 +61,7 @@ class WorldCounters:
     non_finite_controls: int = 0  # controller outputs replaced by zero before reaching pybullet
     recovered_characters: int = 0  # characters put back upright: off stage, stuck, non-finite
     dropped_ticks: int = 0  # control ticks skipped by the catch-up cap
-
-
-@dataclass(slots=True)
-class _PadPush:
-    character: str
-    force: Vec3
-    height: float  # above floor, where it hits
-    remaining: float
-    duration: float
-    t_start: float
+    slowed_characters: int = 0  # bodies found beyond max_character_speed / max_character_spin, slowed to it
 
 
 class World:
@@ -62,30 +69,25 @@ class World:
         self.config = config
         self._rng = rng
         self._n_sub = config.n_substeps
-        self._client: int | None = p.connect(p.DIRECT)
-        c = self._client
-        p.setGravity(0.0, 0.0, -config.gravity, physicsClientId=c)
-        p.setPhysicsEngineParameter(fixedTimeStep=config.physics_dt, numSubSteps=0,
-                                    deterministicOverlappingPairs=1, physicsClientId=c)
-        self._floor: int = p.createMultiBody(0.0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=c),
-                                             physicsClientId=c)
-        p.changeDynamics(self._floor, -1, lateralFriction=1.0, restitution=0.0, physicsClientId=c)
-        p.setCollisionFilterGroupMask(self._floor, -1, GROUP_FLOOR, MASK_FLOOR, physicsClientId=c)
+        client, self._floor = open_client(config)
+        self._client: int | None = client
         self._stage = Stage(config.x_min, config.x_max, config.y_min, config.y_max)
-        self._pool = ContactorPool(c, config.contactor_friction, config.contactor_stiffness,
+        self._pool = ContactorPool(client, config.contactor_friction, config.contactor_stiffness,
                                    config.contactor_damping)
         self._episodes = ContactEpisodes(config.contact_episode_gap_s)
-        self._characters: dict[str, Character] = {}
+        self._crowd = Crowd()
         self._by_body: dict[int, str] = {}
-        self._shapes: dict[CharacterSpec, int] = {}
-        self._designs: dict[CharacterSpec, BalanceDesign] = {}
+        self._shapes: dict[tuple[float, ...], int] = {}  # by the spec's body figures
+        self._designs: dict[tuple[float, ...], BalanceDesign] = {}  # by its balance figures
         self._ticks = 0
         self._pending = 0.0
         self._contactors: tuple[SafeContactor, ...] = ()
         self._contactors_t = 0.0
         self._seen: dict[SafeImpulse, float] = {}  # impulses applied, until when a repeat is the same one
-        self._pads: list[_PadPush] = []
+        self._pushes: list[Push] = []
         self._counts = {f: 0 for f in WorldCounters.__dataclass_fields__}
+        self.physics_wall_s = 0.0  # wall seconds spent in the physics substeps (for benchmarks)
+        self._neighbours = Neighbours()
 
     # ------------------------------------------------------------------ public surface
     @property
@@ -94,35 +96,65 @@ class World:
 
     @property
     def counters(self) -> WorldCounters:
-        non_finite = sum(ch.non_finite_controls for ch in self._characters.values())
-        return WorldCounters(**{**self._counts, "non_finite_controls": non_finite})
+        return WorldCounters(**{**self._counts, "non_finite_controls": int(self._crowd.non_finite.sum())})
 
-    def character(self, name: str) -> Character:
-        """The live character (for inspection: bounds records, state machine); KeyError if unknown."""
-        return self._characters[name]
+    @property
+    def crowd(self) -> Crowd:
+        """The characters' arrays (read them; the world owns and writes them)."""
+        return self._crowd
+
+    def character(self, name: str) -> CharacterView:
+        """One character's controller record (bounds, state, load); KeyError if unknown."""
+        return view(self._crowd, self._crowd.index[name])
 
     def add_character(self, spec: CharacterSpec, position: tuple[float, float], heading: float,
-                      intent: str = "wander") -> str:
-        """Stand a new character upright at stage ``position`` facing ``heading``; returns its unique name."""
+                      intent: str = "wander", waypoints: Sequence[tuple[float, float]] | None = None) -> str:
+        """Stand a new character upright at stage ``position`` facing ``heading``; returns its unique name.
+
+        ``waypoints`` (stage x, y) replaces the spec's loop for the intent ``follow``.
+        """
         client = self._require_open()
-        if not all(math.isfinite(v) for v in (*position, heading)) or len(position) != 2:
+        if len(position) != 2 or not all(math.isfinite(v) for v in (*position, heading)):
             raise ValueError(f"position: expected finite (x, y) and heading, got {position!r}, {heading!r}")
+        if intent not in INTENTS:
+            raise ValueError(f"intent: expected one of {', '.join(INTENTS)}, got {intent!r}")
+        path = np.asarray(spec.waypoints if waypoints is None else waypoints, dtype=np.float64).reshape(-1, 2)
+        if not np.isfinite(path).all():
+            raise ValueError(f"waypoints: expected finite (x, y) pairs, got {waypoints!r}")
         name, k = spec.name, 1
-        while name in self._characters:
+        while name in self._crowd.index:
             k += 1
             name = f"{spec.name}-{k}"
-        if spec not in self._shapes:
-            self._shapes[spec] = CharacterBody.create_shape(client, spec)
-            self._designs[spec] = BalanceDesign.for_spec(spec, self.config.floor_friction, self.config.gravity,
-                                                         self.config.control_dt)
-        ai = CharacterAI(spec, intent, self._stage, self._rng, heading)
-        body = CharacterBody(client, spec, (position[0], position[1], spec.com_height + 0.002),
-                             yaw_quaternion(heading), self._shapes[spec])
-        ch = Character(name, spec, body, self._designs[spec], ai, self.config.floor_friction,
-                       self.config.gravity, self.t)
-        self._characters[name] = ch
-        self._by_body[body.body_id] = name
+        shape_key = tuple(getattr(spec, f) for f in _SHAPE_FIELDS)
+        if shape_key not in self._shapes:
+            self._shapes[shape_key] = create_shape(client, spec)
+        design_key = tuple(getattr(spec, f) for f in _DESIGN_FIELDS)
+        if design_key not in self._designs:
+            self._designs[design_key] = BalanceDesign.for_spec(spec, self.config.floor_friction, self.config.gravity,
+                                                               self.config.control_dt)
+        pos = (float(position[0]), float(position[1]), spec.com_height + 0.002)
+        orn = yaw_quaternion(heading)
+        body = create_body(client, spec, self._shapes[shape_key], pos, orn)
+        row = self._crowd.add(name, body, spec, self._designs[design_key], intent, path, self.t)
+        self._place_row(row, pos, orn)
+        self._crowd.heading_goal[row] = heading
+        self._by_body[body] = name
         return name
+
+    def strike(self, name: str, force: Vec3, duration: float, at: Vec3) -> None:
+        """Push character ``name`` with the world-frame ``force`` (N) for ``duration`` s at the point ``at``
+        (its body frame, metres from the centre of mass: x forward, y left, z up; ``sim.body.figure_point``).
+
+        Reported as a ``ContactEvent`` of person ``PAD_PERSON`` when it ends, like a pad's.
+        """
+        row = self._crowd.index[name]
+        push = clean_push(force, duration, self.config)
+        if push is None or len(at) != 3 or not all(math.isfinite(v) and abs(v) <= _REACH_M for v in at):
+            self._counts["rejected_inputs"] += 1
+            return
+        force, duration, cut = push
+        self._counts["clamped_inputs"] += cut
+        self._pushes.append(Push(row, force, at, duration, duration, self.t))
 
     def step(self, observation: BodyObservation | None, dt: float) -> WorldSnapshot:
         """Advance by ``dt`` seconds of loop time (whole control ticks; the remainder waits)."""
@@ -142,8 +174,7 @@ class World:
             self._counts["dropped_ticks"] += skipped
             n = self.config.max_catchup_ticks
             self._pending -= dropped
-        for ch in self._characters.values():
-            ch.contact_force = 0.0
+        self._crowd.contact_force[:] = 0.0
         events: list[ContactEvent] = []
         changes: list[StateChange] = []
         for _ in range(n):
@@ -168,7 +199,7 @@ class World:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    # ------------------------------------------------------------------ internals
+    # ------------------------------------------------------------------ input
     def _require_open(self) -> int:
         if self._client is None:
             raise RuntimeError("World: already closed")
@@ -182,22 +213,14 @@ class World:
         self._contactors_t = self.t
         now = self.t
         self._seen = {imp: until for imp, until in self._seen.items() if until > now}
+        crowd = self._crowd
         for imp in cleaned.impulses:
-            if imp in self._seen:  # the same report again (a re-sent observation): apply it once
+            if imp in self._seen or not len(crowd):  # the same report again (a re-sent observation): once
                 continue
             self._seen[imp] = now + imp.duration + self.config.control_dt
-            self._queue_pad(imp)
-
-    def _queue_pad(self, imp: SafeImpulse) -> None:
-        best, best_d = None, math.inf
-        for ch in self._characters.values():
-            pos = ch.kin.position
-            d = math.hypot(pos[0] - imp.position[0], pos[1] - imp.position[1])
-            if d < best_d:
-                best, best_d = ch, d
-        if best is None:
-            return
-        self._pads.append(_PadPush(best.name, imp.force, imp.position[2], imp.duration, imp.duration, self.t))
+            row = int(np.argmin(np.hypot(crowd.pos[:, 0] - imp.position[0], crowd.pos[:, 1] - imp.position[1])))
+            self._pushes.append(Push(row, imp.force, axis_offset(crowd, row, imp.position[2]), imp.duration,
+                                     imp.duration, now))
 
     def _contactors_now(self, t: float) -> tuple[SafeContactor, ...]:
         age = t - self._contactors_t
@@ -211,159 +234,151 @@ class World:
             for c in self._contactors
         )
 
+    # ------------------------------------------------------------------ one control tick
     def _tick(self, events: list[ContactEvent], changes: list[StateChange]) -> None:
         client = self._require_open()
-        cfg = self.config
+        cfg, crowd = self.config, self._crowd
         t0 = self.t
-        chars = list(self._characters.values())
         contactors = self._contactors_now(t0)
-        # AI and control
-        sep = np.zeros((len(chars), 2))
-        if chars:
-            xy = np.array([[ch.kin.position[0], ch.kin.position[1]] for ch in chars])
-            space = np.array([ch.spec.personal_space for ch in chars])
-            speed = np.array([2.0 * ch.spec.walk_speed for ch in chars])  # personal space beats goals
-            upright = np.array([ch.state in UPRIGHT_STATES for ch in chars])
-            sep = separation_velocities(xy, space, speed) * upright[:, None]
-        for i, ch in enumerate(chars):
-            pos = ch.kin.position
-            nearest = None
-            best = math.inf
-            for c in contactors:
-                d = math.hypot(c.position[0] - pos[0], c.position[1] - pos[1])
-                if d < best:
-                    best, nearest = d, (c.position[0], c.position[1])
-            goal = ch.ai.decide(t0, pos[0], pos[1], ch.state, (float(sep[i, 0]), float(sep[i, 1])), nearest)
-            change = ch.think(t0, goal)
-            if change is not None:
-                changes.append(StateChange(t=t0, character=ch.name, before=change[0], after=change[1]))
+        if len(crowd):
+            self._think(t0, contactors, changes)
         self._pool.place(contactors)
-        pad_forces = self._pad_forces()
+        touched = {push.row for push in self._pushes}  # every queued push acts in this tick
+        pad_forces = tick_forces(self._pushes, crowd, cfg.control_dt, cfg.max_impulse_force_n)
         dt = cfg.physics_dt
+        start = time.perf_counter()
         for k in range(self._n_sub):
-            for ch in chars:
-                ch.apply()
-            for body_id, force, at in pad_forces:
-                p.applyExternalForce(body_id, -1, force, at, p.WORLD_FRAME, physicsClientId=client)
+            for body, force, at in pad_forces:
+                p.applyExternalForce(body, -1, force, at, p.WORLD_FRAME, physicsClientId=client)
             p.stepSimulation(physicsClientId=client)
             if self._pool.active:
                 t_sub = t0 + (k + 1) * dt
                 for (name, person), f in self._pool.read_forces(self._by_body).items():
                     self._episodes.add(t_sub, name, person, f, dt)
-                    ch = self._characters[name]
-                    ch.contact_force = max(ch.contact_force, f)
+                    row = crowd.index[name]
+                    crowd.contact_force[row] = max(crowd.contact_force[row], f)
+                    touched.add(row)
+        self.physics_wall_s += time.perf_counter() - start
         self._ticks += 1
-        self._sense_all()
+        if touched:  # pushed during this tick (a person's contact, a pad, a strike): it may pivot
+            crowd.pushed_at[list(touched)] = t0
+        crowd.sense(*read_states(client, crowd.bodies), cfg.control_dt, cfg.gravity)
+        self._limit_speeds()
         self._recover(changes)
-        t1 = self.t
-        for ch in chars:
-            ch.integrate(cfg.control_dt)
-        for ev in self._episodes.close(t1, lambda n: self._characters[n].spec.push_threshold_ns):
+        fr = crowd.frames
+        crowd.d_front += (crowd.vel[:, 0] * fr.cos_h + crowd.vel[:, 1] * fr.sin_h) * cfg.control_dt
+        crowd.d_side += (crowd.vel[:, 0] * fr.sin_h - crowd.vel[:, 1] * fr.cos_h) * cfg.control_dt
+        for ev in self._episodes.close(self.t, lambda n: float(crowd.cols.push_threshold_ns[crowd.index[n]])):
             events.append(ev)
             self._notice(ev, contactors)
-        self._finish_pads(events)
-
-    def _pad_forces(self) -> list[tuple[int, Vec3, Vec3]]:
-        cdt = self.config.control_dt
-        out: list[tuple[int, Vec3, Vec3]] = []
-        for pad in self._pads:
-            ch = self._characters.get(pad.character)
-            if ch is None:
-                continue
-            share = min(pad.remaining, cdt) / cdt  # so that the whole tick carries exactly F·duration
-            f = (pad.force[0] * share, pad.force[1] * share, pad.force[2] * share)
-            spec, pos, up = ch.spec, ch.kin.position, ch.frame.up
-            along = max(-spec.com_height, min(spec.height - spec.com_height, pad.height - spec.com_height))
-            at = (pos[0] + along * up[0], pos[1] + along * up[1], pos[2] + along * up[2])
-            out.append((ch.body.body_id, f, at))
-            ch.contact_force = max(ch.contact_force, math.sqrt(f[0] ** 2 + f[1] ** 2 + f[2] ** 2))
-            pad.remaining -= cdt
-        return out
-
-    def _finish_pads(self, events: list[ContactEvent]) -> None:
-        keep: list[_PadPush] = []
-        for pad in self._pads:
-            if pad.remaining > 1e-12:
-                keep.append(pad)
-                continue
-            ch = self._characters.get(pad.character)
-            if ch is None:
-                continue
-            size = math.sqrt(sum(v * v for v in pad.force))
-            ev = ContactEvent(t_start=pad.t_start, t_end=pad.t_start + pad.duration, character=pad.character,
-                              person=PAD_PERSON, impulse_ns=size * pad.duration, peak_force_n=size,
-                              push=size * pad.duration >= ch.spec.push_threshold_ns)
+        self._pushes, done = finished(self._pushes, crowd)
+        for push, ev in done:
             events.append(ev)
             if ev.push:
-                ch.ai.notice_push(self.t, (pad.force[0], pad.force[1]))
-        self._pads = keep
+                notice_push(crowd, push.row, self.t, (push.force[0], push.force[1]))
+
+    def _think(self, t0: float, contactors: tuple[SafeContactor, ...], changes: list[StateChange]) -> None:
+        """AI, state machine and control of every character; writes the control impulses."""
+        cfg, crowd, client = self.config, self._crowd, self._require_open()
+        c = crowd.cols
+        xy = crowd.pos[:, :2]
+        upright = crowd.upright()
+        sep = separation_velocities(xy, c.personal_space, 2.0 * c.walk_speed, self._neighbours) * upright[:, None]
+        person = np.full((len(crowd), 2), math.nan)
+        if contactors:
+            people = np.array([cc.position[:2] for cc in contactors])
+            d = np.hypot(xy[:, 0, None] - people[None, :, 0], xy[:, 1, None] - people[None, :, 1])
+            person = people[np.argmin(d, axis=1)]
+        decide(crowd, t0, self._stage, sep, person, self._rng)
+        load = crowd.load = crowd.balance_load()
+        if not quiet(crowd, load):
+            for row, before, after in advance(crowd, readings(crowd, t0, load), t0):
+                self._on_change(row, before, after, t0)
+                changes.append(StateChange(t=t0, character=crowd.names[row], before=STATES[before],
+                                           after=STATES[after]))
+            up = crowd.upright()
+            crowd.not_upright_since = np.where(up, math.nan, np.where(np.isnan(crowd.not_upright_since), t0,
+                                                                      crowd.not_upright_since))
+        elif not np.isnan(crowd.not_upright_since).all():
+            crowd.not_upright_since[:] = math.nan
+        imp = control(crowd, t0, cfg.floor_friction, cfg.gravity, cfg.control_dt)
+        if imp.active.all():
+            write_velocities(client, crowd.bodies, crowd.vel + imp.dv, crowd.ang + imp.dw)
+        else:
+            rows = np.flatnonzero(imp.active)
+            bodies = [crowd.bodies[i] for i in rows.tolist()]
+            write_velocities(client, bodies, crowd.vel[rows] + imp.dv[rows], crowd.ang[rows] + imp.dw[rows])
+        crowd.vz_after = crowd.vel[:, 2] + imp.dv[:, 2]
+
+    def _on_change(self, row: int, before: int, after: int, t: float) -> None:
+        crowd = self._crowd
+        mu = 0.0 if after <= STAGGER else self.config.floor_friction
+        if crowd.friction_now[row] != mu:
+            set_friction(self._require_open(), crowd.bodies[row], mu)
+            crowd.friction_now[row] = mu
+        if after == STAND_UP:
+            crowd.stand_up_start[row] = crowd.frames.tilt[row]
+        elif after == FALL and math.isnan(crowd.fell_at[row]):
+            crowd.fell_at[row] = t
+        elif after == WALK:
+            crowd.heading_goal[row] = crowd.frames.heading[row]
+            if before == STAND_UP:
+                on_stood_up(crowd, row, t)
+            crowd.fell_at[row] = math.nan
 
     def _notice(self, ev: ContactEvent, contactors: tuple[SafeContactor, ...]) -> None:
-        if not ev.push:
+        if not ev.push or ev.character not in self._crowd.index:
             return
-        ch = self._characters.get(ev.character)
-        if ch is None:
-            return
-        pos = ch.kin.position
+        crowd = self._crowd
+        row = crowd.index[ev.character]
+        x, y = float(crowd.pos[row, 0]), float(crowd.pos[row, 1])
         mine = [c for c in contactors if c.person == ev.person]
         if mine:
-            near = min(mine, key=lambda c: math.hypot(c.position[0] - pos[0], c.position[1] - pos[1]))
-            ch.ai.notice_push(self.t, (pos[0] - near.position[0], pos[1] - near.position[1]))
+            near = min(mine, key=lambda c: math.hypot(c.position[0] - x, c.position[1] - y))
+            notice_push(crowd, row, self.t, (x - near.position[0], y - near.position[1]))
         else:
-            ch.ai.notice_push(self.t, (ch.kin.velocity[0], ch.kin.velocity[1]))
+            notice_push(crowd, row, self.t, (float(crowd.vel[row, 0]), float(crowd.vel[row, 1])))
 
-    def _sense_all(self) -> None:
-        client = self._require_open()
-        normal: dict[int, float] = {}
-        for cp in p.getContactPoints(bodyA=self._floor, physicsClientId=client):
-            other = cp[2] if cp[1] == self._floor else cp[1]
-            normal[other] = normal.get(other, 0.0) + cp[9]
-        for ch in self._characters.values():
-            ch.sense(ch.body.read(), normal.get(ch.body.body_id, 0.0))
+    # ------------------------------------------------------------------ repair
+    def _place_row(self, row: int, pos: Vec3, orn: tuple[float, float, float, float]) -> None:
+        """A body was just put at ``pos``/``orn``, still: set its row without reading pybullet."""
+        self._crowd.place(row, pos, orn, self._crowd.specs[row].mass, self.config.gravity)
+
+    def _limit_speeds(self) -> None:
+        """Slow any body beyond the speed or spin limits (and count it): nothing runs away for ever."""
+        rows = too_fast(self._crowd, self.config)
+        if rows.size:
+            self._counts["slowed_characters"] += int(rows.size)
+            crowd = self._crowd
+            finite = rows[np.isfinite(crowd.vel[rows]).all(axis=1) & np.isfinite(crowd.ang[rows]).all(axis=1)]
+            if finite.size:  # (non-finite ones are put back upright by _recover)
+                write_velocities(self._require_open(), [crowd.bodies[i] for i in finite.tolist()],
+                                 crowd.vel[finite], crowd.ang[finite])
 
     def _recover(self, changes: list[StateChange]) -> None:
-        cfg = self.config
-        t = self.t
-        for ch in self._characters.values():
-            k: Kinematics = ch.kin
-            x, y, z = k.position
-            bad = not k.is_finite()
-            off = not bad and (x < cfg.x_min - cfg.stage_escape_margin
-                               or x > cfg.x_max + cfg.stage_escape_margin
-                               or y < cfg.y_min - cfg.stage_escape_margin
-                               or y > cfg.y_max + cfg.stage_escape_margin or z < -1.0 or z > 20.0)
-            stuck = ch.not_upright_since is not None and t - ch.not_upright_since > cfg.stuck_timeout_s
-            if not (bad or off or stuck):
-                continue
+        """Stand up, on the stage, every character that is lost, non-finite or stuck on the ground."""
+        crowd, t = self._crowd, self.t
+        for row, lost in lost_characters(crowd, self.config, t):
             self._counts["recovered_characters"] += 1
-            self._episodes.forget(ch.name)
-            before = ch.state
-            spot = self._free_spot(ch, None if (bad or off) else (x, y))
-            heading = ch.frame.heading if math.isfinite(ch.frame.heading) else 0.0
-            ch.put_upright((spot[0], spot[1], ch.spec.com_height + 0.002), heading, t)
-            if before is not ch.state:
-                changes.append(StateChange(t=t, character=ch.name, before=before, after=ch.state))
-
-    def _free_spot(self, ch: Character, near: tuple[float, float] | None) -> tuple[float, float]:
-        st = self._stage.shrunk(ch.spec.stage_margin)
-        others = [o.kin.position for o in self._characters.values() if o is not ch]
-
-        def free(px: float, py: float) -> bool:
-            return all(math.hypot(px - o[0], py - o[1]) > 2.0 * ch.spec.half_width + 0.1 for o in others)
-
-        if near is not None:
-            px = min(max(near[0], st.x_min), st.x_max)
-            py = min(max(near[1], st.y_min), st.y_max)
-            if free(px, py):
-                return px, py
-        for _ in range(32):
-            px, py = float(self._rng.uniform(st.x_min, st.x_max)), float(self._rng.uniform(st.y_min, st.y_max))
-            if free(px, py):
-                return px, py
-        return 0.5 * (st.x_min + st.x_max), 0.5 * (st.y_min + st.y_max)
+            self._episodes.forget(crowd.names[row])
+            before = int(crowd.state[row])
+            near = None if lost else (float(crowd.pos[row, 0]), float(crowd.pos[row, 1]))
+            spot = free_spot(crowd, row, self._stage, self._rng, near)
+            heading = float(crowd.frames.heading[row]) if np.isfinite(crowd.quat[row]).all() else 0.0
+            pos = (spot[0], spot[1], float(crowd.cols.com_height[row]) + 0.002)
+            orn = yaw_quaternion(heading)
+            reset_body(self._require_open(), crowd.bodies[row], pos, orn)
+            set_friction(self._require_open(), crowd.bodies[row], 0.0)
+            crowd.friction_now[row] = 0.0
+            crowd.state[row], crowd.entered[row], crowd.since[row], crowd.face_up[row] = WALK, t, math.nan, -1
+            crowd.not_upright_since[row] = crowd.fell_at[row] = math.nan
+            crowd.heading_goal[row] = heading
+            self._place_row(row, pos, orn)
+            if before != WALK:
+                changes.append(StateChange(t=t, character=crowd.names[row], before=STATES[before],
+                                           after=STATES[WALK]))
 
     def _snapshot(self, events: tuple[ContactEvent, ...], changes: tuple[StateChange, ...],
                   dropped: float) -> WorldSnapshot:
-        chars: tuple[CharacterSnapshot, ...] = tuple(ch.snapshot() for ch in self._characters.values())
-        return WorldSnapshot(t=self.t, steps=self._ticks * self._n_sub, characters=chars, contacts=events,
-                             changes=changes, dropped_time=dropped)
+        return WorldSnapshot(t=self.t, steps=self._ticks * self._n_sub, characters=snapshots(self._crowd),
+                             contacts=events, changes=changes, dropped_time=dropped)

@@ -8,14 +8,15 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from sim.balance import BalanceDesign, discretise, dlqr, expm, pendulum_matrices
+from sim.balance import BalanceDesign, discretise, dlqr, expm, impulse_discretise, pendulum_matrices
 from sim.config import CharacterSpec
-from sim.frames import body_frame, tilt_rates, wrap_angle
+from sim.crowd import STATES, Crowd
+from sim.frames import Frames, frames, tilt_rates, wrap_angle
 from sim.snapshot import CharacterState
-from sim.states import BalanceReading, StateMachine
+from sim.states import Readings, advance
 
 G = 9.81
-DT = 1 / 60
+DT = 1 / 30  # the default control tick
 
 
 def test_expm_matches_rotation_and_scalar() -> None:
@@ -34,6 +35,15 @@ def test_zero_order_hold_discretisation_integrates_a_constant_input() -> None:
     ad, bd = discretise(a, b, 0.5)
     assert np.allclose(ad, [[1.0, 0.5], [0.0, 1.0]])
     assert np.allclose(bd, [[0.125], [0.5]])
+
+
+def test_impulse_discretisation_matches_an_impulse_then_free_motion() -> None:
+    # ẍ = u given as the impulse u·dt at the start: v⁺ = v + u dt, x⁺ = x + (v + u dt) dt
+    a = np.array([[0.0, 1.0], [0.0, 0.0]])
+    b = np.array([[0.0], [1.0]])
+    ad, bd = impulse_discretise(a, b, 0.5)
+    assert np.allclose(ad, [[1.0, 0.5], [0.0, 1.0]])
+    assert np.allclose(bd, [[0.25], [0.5]])
 
 
 def test_lqr_stabilises_the_linearised_pendulum() -> None:
@@ -58,11 +68,11 @@ def _simulate_plane(design_gains: object, spec: CharacterSpec, theta: float, rat
     for _ in range(int(seconds / DT)):
         force, torque = design_gains.feedback(theta, rate, v)
         force = max(-limit, min(limit, force))
-        for _ in range(int(DT / h)):
-            acc = (m * G * length * math.sin(theta) - length * math.cos(theta) * force + torque) / i
-            rate += acc * h
+        rate += (-length * math.cos(theta) * force + torque) / i * DT  # the tick's impulse, as the world
+        v += force / m * DT
+        for _ in range(round(DT / h)):
+            rate += m * G * length * math.sin(theta) / i * h
             theta += rate * h
-            v += force / m * h
         worst = max(worst, abs(theta))
         if worst > 1.2:
             break
@@ -91,41 +101,80 @@ def test_tracks_goal_velocity_in_the_model() -> None:
     assert worst < 0.2 and abs(err) < 0.02
 
 
+def _frame(q: tuple[float, ...]) -> Frames:
+    return frames(np.array([q]))
+
+
 def test_frames_heading_and_tilt_signs() -> None:
     heading = 0.7
     lean = 0.2
     # lean forward: rotate about the character's left axis, after turning to the heading
     q = p.getQuaternionFromEuler([0.0, lean, heading])  # yaw applied last: extrinsic X, Y, Z
-    f = body_frame(q)
-    assert f.heading == pytest.approx(heading, abs=1e-9)
-    assert f.tilt_x == pytest.approx(lean, abs=1e-9) and abs(f.tilt_z) < 1e-9
-    q = p.getQuaternionFromEuler([lean, 0.0, heading])  # +roll about forward: leans right
-    f = body_frame(q)
-    assert f.tilt_z == pytest.approx(lean, abs=1e-9) and abs(f.tilt_x) < 1e-9
+    f = _frame(q)
+    assert f.heading[0] == pytest.approx(heading, abs=1e-9)
+    assert f.tilt_x[0] == pytest.approx(lean, abs=1e-9) and abs(f.tilt_z[0]) < 1e-9
+    f = _frame(p.getQuaternionFromEuler([lean, 0.0, heading]))  # +roll about forward: leans right
+    assert f.tilt_z[0] == pytest.approx(lean, abs=1e-9) and abs(f.tilt_x[0]) < 1e-9
     # lying face down (pitched forward 90°) keeps its heading; face axis points down
-    f = body_frame(p.getQuaternionFromEuler([0.0, math.pi / 2, heading]))
-    assert f.heading == pytest.approx(heading, abs=1e-6) and not f.face_up
-    assert body_frame(p.getQuaternionFromEuler([0.0, -math.pi / 2, heading])).face_up
+    f = _frame(p.getQuaternionFromEuler([0.0, math.pi / 2, heading]))
+    assert f.heading[0] == pytest.approx(heading, abs=1e-6) and not f.face_up[0]
+    assert _frame(p.getQuaternionFromEuler([0.0, -math.pi / 2, heading])).face_up[0]
     # a forward pitch rate shows up as θ̇x
-    up = body_frame(p.getQuaternionFromEuler([0.0, 0.0, heading]))
-    rx, rz = tilt_rates(up, (-math.sin(heading) * 1.5, math.cos(heading) * 1.5, 0.0))
-    assert rx == pytest.approx(1.5) and rz == pytest.approx(0.0, abs=1e-12)
+    up = _frame(p.getQuaternionFromEuler([0.0, 0.0, heading]))
+    rx, rz = tilt_rates(up, np.array([[-math.sin(heading) * 1.5, math.cos(heading) * 1.5, 0.0]]))
+    assert rx[0] == pytest.approx(1.5) and rz[0] == pytest.approx(0.0, abs=1e-12)
     assert wrap_angle(3 * math.pi) == pytest.approx(-math.pi)
+    # rows are independent, and the rotation's columns are the body axes
+    many = frames(np.array([p.getQuaternionFromEuler([0.0, lean, h]) for h in (0.0, 1.0, -2.0)]))
+    assert np.allclose(many.heading, [0.0, 1.0, -2.0]) and np.allclose(many.tilt_x, lean)
+    rot = many.rotation()
+    assert np.allclose(rot[:, :, 2], many.up) and np.allclose(np.linalg.det(rot), 1.0)
+    # a broken quaternion reads as upright instead of spreading NaN
+    assert frames(np.array([[math.nan, 0.0, 0.0, 1.0]])).tilt[0] == 0.0
+
+
+class _Machine:
+    """One character's state machine driven through ``advance`` with hand-made readings."""
+
+    def __init__(self, spec: CharacterSpec) -> None:
+        self.crowd = Crowd()
+        self.crowd.add("c", 0, spec, BalanceDesign.for_spec(spec, 0.8, G, DT), "idle", np.zeros((0, 2)), 0.0)
+
+    @property
+    def state(self) -> CharacterState:
+        return STATES[int(self.crowd.state[0])]
+
+    @property
+    def face_up(self) -> bool | None:
+        v = int(self.crowd.face_up[0])
+        return None if v < 0 else bool(v)
+
+    def force(self, state: CharacterState, t: float) -> None:
+        self.crowd.state[0] = STATES.index(state)
+        self.crowd.entered[0] = t
+
+    def update(self, t: float, r: Readings) -> tuple[CharacterState, CharacterState] | None:
+        changes = advance(self.crowd, r, t)
+        return (STATES[changes[0][1]], STATES[changes[0][2]]) if changes else None
 
 
 def _r(load: float = 0.0, tilt: float = 0.0, speed: float = 0.0, spin: float = 0.0, face_up: bool = True,
-       error: float = 0.0) -> BalanceReading:
-    return BalanceReading(load=load, tilt=tilt, speed=speed, spin=spin, face_up=face_up, stand_up_error=error)
+       error: float = 0.0) -> Readings:
+    def a(v: float) -> np.ndarray:
+        return np.array([v])
+
+    return Readings(load=a(load), tilt=a(tilt), speed=a(speed), spin=a(spin), face_up=np.array([face_up]),
+                    stand_up_error=a(error))
 
 
 def test_state_machine_walks_the_whole_cycle() -> None:
     spec = CharacterSpec()
-    m = StateMachine(spec)
+    m = _Machine(spec)
     S = CharacterState
     seen = []
     t = 0.0
 
-    def tick(r: BalanceReading, n: int = 1) -> None:
+    def tick(r: Readings, n: int = 1) -> None:
         nonlocal t
         for _ in range(n):
             t += DT
@@ -156,7 +205,7 @@ def test_state_machine_walks_the_whole_cycle() -> None:
 
 def test_state_machine_stand_up_knocked_over_falls_again() -> None:
     spec = CharacterSpec()
-    m = StateMachine(spec)
+    m = _Machine(spec)
     m.force(CharacterState.STAND_UP, 0.0)
     assert m.update(0.1, _r(load=math.inf, tilt=1.0, error=math.radians(50))) is None  # grace period
     assert m.update(1.0, _r(load=math.inf, tilt=1.0, error=math.radians(50))) == (

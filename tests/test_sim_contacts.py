@@ -10,10 +10,10 @@ import pytest
 from interaction.types import BodyObservation, Contactor, Impulse
 from sim.config import CharacterSpec, WorldConfig
 from sim.contactors import ContactEpisodes
-from sim.snapshot import CharacterState, ContactEvent
+from sim.snapshot import CharacterState, ContactEvent, StateChange
 from sim.world import PAD_PERSON, World
 
-DT = 1 / 60
+DT = WorldConfig().control_dt
 PHYS = 1 / 240
 
 
@@ -117,7 +117,7 @@ def test_pad_impulse_pushes_the_nearest_character_and_is_applied_once() -> None:
         hit = Impulse(position=(1.4, 0.0, spec.com_height), force=(150.0, 0.0, 0.0), duration=0.1, source="pad0")
         events: list[ContactEvent] = []
         for k in range(30):  # the same report re-sent for the first frames, while the hit still acts
-            s = w.step(BodyObservation(t=0.0, impulses=(hit,)) if k < 6 else None, DT)
+            s = w.step(BodyObservation(t=0.0, impulses=(hit,)) if k < 3 else None, DT)
             events += s.contacts
         (ev,) = events
         assert ev.person == PAD_PERSON and ev.character == near
@@ -181,7 +181,7 @@ def test_a_character_fallen_for_too_long_is_stood_up() -> None:
         w.add_character(spec, (0.0, 0.0), 0.0, intent="idle")
         hit = Impulse(position=(0.0, 0.0, 1.3), force=(1500.0, 0.0, 0.0), duration=0.1, source="pad")
         w.step(BodyObservation(t=0.0, impulses=(hit,)), DT)
-        changes = []
+        changes: list[StateChange] = []
         for _ in range(round(3.0 / DT)):
             changes += w.step(None, DT).changes
         assert CharacterState.FALL in [c.after for c in changes]

@@ -35,7 +35,7 @@ def test_ratio_within_relative_tolerance_is_accepted() -> None:
 
 def test_world_config_defaults_and_errors_name_the_field() -> None:
     cfg = WorldConfig()
-    assert cfg.n_substeps == 4
+    assert cfg.n_substeps == 8  # physics 240 Hz, control 30 Hz
     with pytest.raises(ValueError, match=r"^control_dt: expected a whole multiple"):
         WorldConfig(control_dt=1 / 50)
     with pytest.raises(ValueError, match=r"^x_max: "):

@@ -12,7 +12,7 @@ from sim.config import CharacterSpec, WorldConfig
 from sim.snapshot import CharacterState, WorldSnapshot
 from sim.world import World
 
-DT = 1 / 60
+DT = WorldConfig().control_dt
 S = CharacterState
 
 
@@ -185,15 +185,16 @@ def test_same_seed_and_inputs_give_identical_snapshots() -> None:
 def test_catch_up_is_capped_and_dropped_time_reported() -> None:
     with _world() as w:
         w.add_character(CharacterSpec(), (0.0, 0.0), 0.0)
+        cap = w.config.max_catchup_ticks
         s = w.step(None, 1.0)
-        assert s.t == pytest.approx(8 * DT)
-        assert s.steps == 8 * 4
-        assert s.dropped_time == pytest.approx(1.0 - 8 * DT)
-        assert w.counters.dropped_ticks == 60 - 8
+        assert s.t == pytest.approx(cap * DT)
+        assert s.steps == cap * w.config.n_substeps
+        assert s.dropped_time == pytest.approx(1.0 - cap * DT)
+        assert w.counters.dropped_ticks == round(1.0 / DT) - cap
         s = w.step(None, 0.5 * DT)  # less than a tick: waits
-        assert s.t == pytest.approx(8 * DT) and s.dropped_time == 0.0
+        assert s.t == pytest.approx(cap * DT) and s.dropped_time == 0.0
         s = w.step(None, 0.5 * DT)
-        assert s.t == pytest.approx(9 * DT)
+        assert s.t == pytest.approx((cap + 1) * DT)
 
 
 def test_close_is_idempotent_and_names_are_unique() -> None:
