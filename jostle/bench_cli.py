@@ -22,7 +22,7 @@ RAW = argparse.RawDescriptionHelpFormatter
 BENCHES: dict[str, tuple[str, str]] = {
     "pipeline": ("jostle.bench_pipeline", "the demo's cost per stage: decode, observe, simulate, draw"),
     "sim": ("sim.bench", "N characters with controller and AI against N bare bodies, same run"),
-    "identify": ("sim.bench_identify", "the paper's observer experiment (§6.2) done by machine"),
+    "identify": ("jostle.bench_identify", "the paper's observer experiment (§6.2) done by machine, on the drawn figure"),
     "render": ("render.bench", "headless frame rate and pose evaluation cost for N characters"),
     "sensors": ("sensors.bench", "pad parser fuzz and rate, recording replay speed"),
     "interaction": ("jostle.bench_interaction", "observers against virtual-performer ground truth"),
@@ -67,7 +67,12 @@ def _runner(name: str) -> Any:
             from jostle.cli import UsageError
 
             raise UsageError(f"bench {name}: not built yet ({BENCHES[name][0]} is missing)")
-        figures: dict[str, Any] = module.run(args)
+        try:
+            figures: dict[str, Any] = module.run(args)
+        except ValueError as e:  # a bad flag value: one line, like every other user error
+            from jostle.cli import UsageError
+
+            raise UsageError(f"bench {name}: {e}") from None
         if args.json:
             print(json.dumps(figures, indent=2, default=str))
         else:

@@ -102,7 +102,7 @@ class JostleConfig:
     raw: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
 
-INTENTS = ("idle", "wander", "approach", "flee")
+INTENTS = ("idle", "wander", "approach", "flee", "follow")
 TOP_KEYS = ("run", "sensors", "observers", "world", "characters", "render")
 
 
@@ -214,7 +214,7 @@ def load_config(path: str | Path) -> JostleConfig:
 class _GroupTable:
     spec: Path
     count: int = 1
-    intent: Literal["idle", "wander", "approach", "flee"] = "wander"
+    intent: Literal["idle", "wander", "approach", "flee", "follow"] = "wander"
     keyframes: Path = Path()  # this group's keyframe set (default: [render] keyframes)
 
     def __post_init__(self) -> None:

@@ -43,7 +43,7 @@ def _run(out: Path | None, *, seed: int, duration: float, video: bool = False,
 def test_demo_produces_pushes_and_real_pixels(tmp_path: Path) -> None:
     frames: list[tuple[WorldSnapshot, BodyObservation, np.ndarray]] = []
     s = _run(tmp_path, seed=7, duration=6.0, video=True, keep=frames)
-    assert s.characters == 6
+    assert s.characters == 8  # six walkers and two critters
     assert s.frames_rendered == len(frames) == 180
     assert s.sim_seconds == pytest.approx(6.0, abs=1e-6)
     assert s.sim_steps == round(6.0 * 240)
