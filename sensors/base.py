@@ -11,7 +11,7 @@ import hashlib
 from dataclasses import dataclass, field
 from enum import StrEnum
 from types import TracebackType
-from typing import Literal, Protocol, runtime_checkable
+from typing import Literal, Protocol, Self, runtime_checkable
 
 import numpy as np
 
@@ -169,6 +169,31 @@ class Sensor(Protocol):
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None: ...
+
+
+class SensorContext:
+    """``with sensor:`` opens the sensor and closes it on the way out; mixed into every driver.
+
+    The class supplies ``open()`` and ``close()``; ``__enter__`` returns the sensor itself.
+    """
+
+    def open(self) -> None:
+        raise NotImplementedError(f"{type(self).__name__} must define open()")
+
+    def close(self) -> None:
+        raise NotImplementedError(f"{type(self).__name__} must define close()")
+
+    def __enter__(self) -> Self:
+        self.open()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
 
 
 # ---------------------------------------------------------------- errors

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from types import TracebackType
 from typing import Literal
 
 import numpy as np
@@ -36,6 +35,7 @@ from sensors.base import (
     PadSample,
     Payload,
     Sensor,
+    SensorContext,
     SensorError,
     SensorNotOpen,
     SensorSpec,
@@ -135,7 +135,7 @@ def corrupt_payload(payload: Payload, kind: Corruption, rng: np.random.Generator
     return PadSample(newtons=newtons, raw=tuple(int(v) for v in rng.integers(-(2**31), 2**31, n)))
 
 
-class FaultySensor:
+class FaultySensor(SensorContext):
     """``sensor``, failing on ``schedule`` (see the module docstring). ``clock`` must be the
     wrapped sensor's clock. Forwards everything else explicitly; closing it closes ``sensor``."""
 
@@ -214,15 +214,6 @@ class FaultySensor:
     def close(self) -> None:
         self._open = False
         self.sensor.close()
-
-    def __enter__(self) -> FaultySensor:
-        self.open()
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.close()
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ from typing import Any
 
 from mcap.writer import CompressionType, Writer
 
-from sensors.base import Frame, Sensor, SensorSpec, SensorStatus
+from sensors.base import Frame, Sensor, SensorContext, SensorSpec, SensorStatus
 from sensors.mcap_codec import (
     META_KIND,
     META_ROLE,
@@ -217,7 +217,7 @@ class RecordingWriter:
                 self._file.close()
 
 
-class Recorder:
+class Recorder(SensorContext):
     """A Sensor that wraps another and writes every frame ``read`` returns to a RecordingWriter.
 
     Everything is forwarded explicitly. Closing the recorder closes the wrapped sensor; the writer
@@ -254,12 +254,3 @@ class Recorder:
         finally:
             if self._owns_writer:
                 self.writer.close()
-
-    def __enter__(self) -> Recorder:
-        self.open()
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.close()

@@ -30,12 +30,12 @@ from __future__ import annotations
 import weakref
 from dataclasses import dataclass
 from pathlib import Path
-from types import TracebackType
 
 from sensors.base import (
     Frame,
     Payload,
     PayloadKind,
+    SensorContext,
     SensorNotOpen,
     SensorSpec,
     SensorState,
@@ -79,7 +79,7 @@ def _spec(name: str, info: ChannelInfo) -> SensorSpec:
                       pads=info.pads)
 
 
-class Replay:
+class Replay(SensorContext):
     """A recorded sensor channel, played on ``clock``. See the module docstring for the timing rule."""
 
     def __init__(
@@ -239,13 +239,3 @@ class Replay:
         self._next = None
         self._open = False
         self._state = SensorState.CLOSED
-
-    def __enter__(self) -> Replay:
-        self.open()
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.close()
-

@@ -10,15 +10,14 @@ A subclass says what it produces (:attr:`spec`) and makes sample k at performanc
 from __future__ import annotations
 
 import time
-from types import TracebackType
 
 from jostle.synth.config import frame_count
 from jostle.synth.scene import Performance
-from sensors.base import Frame, Payload, SensorNotOpen, SensorSpec, SensorState, SensorStatus
+from sensors.base import Frame, Payload, SensorContext, SensorNotOpen, SensorSpec, SensorState, SensorStatus
 from sensors.clock import Clock
 
 
-class TimelineSensor:
+class TimelineSensor(SensorContext):
     """Base of the virtual sensors. See the module doc."""
 
     uses_puppets = True  # False for sensors that need only the poses (no rendering)
@@ -106,15 +105,3 @@ class TimelineSensor:
                 self.performance.release()
             self._open = False
         self._state = SensorState.CLOSED
-
-    def __enter__(self) -> TimelineSensor:
-        self.open()
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()

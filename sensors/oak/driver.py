@@ -21,11 +21,10 @@ from __future__ import annotations
 
 import threading
 import time
-from collections import deque
-from types import TracebackType
 
 from sensors.base import (
     Frame,
+    SensorContext,
     SensorError,
     SensorNotOpen,
     SensorSpec,
@@ -34,6 +33,7 @@ from sensors.base import (
     SensorUnavailable,
 )
 from sensors.clock import Clock
+from sensors.frame_queue import FrameQueue
 from sensors.oak.config import OakConfig
 from sensors.oak.frames import BadMessage, FrameNumbering, make_frame
 from sensors.oak.link import Backoff, Connector, LinkHealth, OakLink
@@ -62,7 +62,7 @@ def _default_connector(found: FoundDevice, config: OakConfig) -> OakLink:
     return connect_device(found, config)
 
 
-class OakSensor:
+class OakSensor(SensorContext):
     def __init__(self, config: OakConfig, clock: Clock, name: str = "oak", *, search: DeviceSearch | None = None,
                  connect: Connector | None = None) -> None:
         self.config = config
@@ -73,8 +73,7 @@ class OakSensor:
         self._spec = SensorSpec(name=name, kind="depth", rate_hz=float(config.fps), width=config.width,
                                 height=config.height)
         self._lock = threading.Lock()
-        self._arrived = threading.Condition(self._lock)
-        self._queue: deque[Frame] = deque(maxlen=QUEUE_SIZE)
+        self._queue = FrameQueue(QUEUE_SIZE)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._open = False
@@ -84,7 +83,7 @@ class OakSensor:
 
     def _reset_counts(self) -> None:
         self._frames = 0
-        self._queue_dropped = 0
+        self._queue.reset()
         self._bad = 0
         self._reconnects = 0
         self._sources = {"frame": 0, "calibration": 0, "none": 0}
@@ -102,10 +101,11 @@ class OakSensor:
             if self._state is SensorState.CONNECTED and not reason and self._sources["none"]:
                 reason = (f"{self._label()}: frames carry no intrinsics and the device has no calibration; depth "
                           "is usable, 3D positions are not (recalibrate the camera)")
+            queue_dropped = self._queue.dropped
             return SensorStatus(
                 state=self._state, reason=reason, frames=self._frames,
-                dropped=self._queue_dropped + self._numbering.skipped, bad=self._bad,
-                extra={"reconnects": float(self._reconnects), "dropped_in_queue": float(self._queue_dropped),
+                dropped=queue_dropped + self._numbering.skipped, bad=self._bad,
+                extra={"reconnects": float(self._reconnects), "dropped_in_queue": float(queue_dropped),
                        "dropped_on_device": float(self._numbering.skipped),
                        "intrinsics_from_frame": float(self._sources["frame"]),
                        "intrinsics_from_calibration": float(self._sources["calibration"]),
@@ -116,9 +116,9 @@ class OakSensor:
         return f"oak {self.name!r} (OAK {self.device_id or self.config.device or '?'})"
 
     def _set_state(self, state: SensorState, reason: str) -> None:
-        with self._arrived:
+        with self._lock:
             self._state, self._reason = state, reason
-            self._arrived.notify_all()
+        self._queue.wake()  # a reader waiting for a frame also stops waiting on FAILED
 
     # -------------------------------------------------------------- opening
 
@@ -135,7 +135,6 @@ class OakSensor:
             text = str(e)
             raise SensorUnavailable(text if text.startswith("oak ") else f"oak {self.name!r}: {text}") from e
         with self._lock:
-            self._queue.clear()
             self._reset_counts()
             self._numbering = FrameNumbering(start_t=self._clock.now())
             self.device_id = found.device_id or found.name
@@ -260,7 +259,7 @@ class OakSensor:
 
     def _deliver(self, link: OakLink, message: object, age_s: float) -> None:
         now = self._clock.now()
-        with self._arrived:
+        with self._lock:
             try:
                 frame, source = make_frame(self.name, message, self._numbering, now=now, age_s=age_s,
                                            size=self.config.size, fallback=link.calibration)
@@ -269,23 +268,18 @@ class OakSensor:
                 self._reason = f"{self._label()}: bad message ({e})"
                 return
             self._sources[source] += 1
-            if len(self._queue) == QUEUE_SIZE:
-                self._queue_dropped += 1
-            self._queue.append(frame)
-            self._arrived.notify_all()
+            self._queue.put(frame)
 
     # -------------------------------------------------------------- reading
 
     def read(self, timeout: float) -> Frame | None:
         if not self._open:
             raise SensorNotOpen(f"oak {self.name!r}: read before open (or after close)")
-        with self._arrived:
-            if not self._queue and self._state is not SensorState.FAILED:
-                self._arrived.wait_for(lambda: bool(self._queue) or self._state is SensorState.FAILED,
-                                       timeout=max(timeout, 0.0))
-            if self._queue:
+        frame = self._queue.get(timeout, until=lambda: self._state is SensorState.FAILED)
+        with self._lock:
+            if frame is not None:
                 self._frames += 1
-                return self._queue.popleft()
+                return frame
             if self._state is SensorState.FAILED:
                 raise OakFailed(self._reason)
             return None
@@ -297,19 +291,10 @@ class OakSensor:
         thread, self._thread = self._thread, None
         if thread is not None and join:
             thread.join(_JOIN_S)  # a read returns within READ_SLICE_S; a hung connect is left to finish
+        self._queue.clear()
         with self._lock:
-            self._queue.clear()
             self._state, self._reason = SensorState.CLOSED, ""
 
     def close(self) -> None:
         self._halt()
         self._open = False
-
-    def __enter__(self) -> OakSensor:
-        self.open()
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.close()

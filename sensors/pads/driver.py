@@ -26,7 +26,6 @@ import os
 import threading
 import time
 from collections import deque
-from types import TracebackType
 from typing import Any
 
 import serial
@@ -34,6 +33,7 @@ import serial
 from sensors.base import (
     Frame,
     PadSample,
+    SensorContext,
     SensorError,
     SensorNotOpen,
     SensorSpec,
@@ -42,6 +42,7 @@ from sensors.base import (
     SensorUnavailable,
 )
 from sensors.clock import Clock
+from sensors.frame_queue import FrameQueue
 from sensors.pads.calibration import PadCalibration
 from sensors.pads.config import PadsConfig
 from sensors.pads.protocol import FRAMINGS, SequenceTracker, StreamParser
@@ -75,7 +76,7 @@ def _error_text(e: BaseException) -> str:
     return f"{type(e).__name__}: {e}"
 
 
-class PadsSensor:
+class PadsSensor(SensorContext):
     def __init__(self, config: PadsConfig, clock: Clock, name: str = "pads") -> None:
         self.config = config
         self.name = name
@@ -83,8 +84,7 @@ class PadsSensor:
         self._framing = FRAMINGS[config.framing]
         self._spec = SensorSpec(name=name, kind="pads", rate_hz=float(config.rate_hz), pads=config.pads)
         self._lock = threading.Lock()
-        self._arrived = threading.Condition(self._lock)
-        self._queue: deque[Frame] = deque(maxlen=QUEUE_SIZE)
+        self._queue = FrameQueue(QUEUE_SIZE)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._open = False
@@ -101,7 +101,6 @@ class PadsSensor:
         self._bad_times: deque[float] = deque(maxlen=c.max_bad_per_s + 1)
         self._bad_seen = 0
         self._frames = 0
-        self._queue_dropped = 0
         self._reconnects = 0
         self._next_seq: int | None = None  # the seq of the next frame; None before the first
         self._last_sample_wall: float | None = None
@@ -118,13 +117,14 @@ class PadsSensor:
             reason = self._reason
             if self._state is SensorState.CONNECTED and not reason:
                 reason = self._connected_note()
+            queue_dropped = self._queue.dropped
             return SensorStatus(
-                state=self._state, reason=reason, frames=self._frames, dropped=tr.dropped + self._queue_dropped,
+                state=self._state, reason=reason, frames=self._frames, dropped=tr.dropped + queue_dropped,
                 bad=p.bad,
                 extra={
                     "bad_bytes": float(p.bad_bytes), "skipped_bytes": float(p.skipped_bytes),
                     "ignored": float(p.ignored), "samples": float(p.samples),
-                    "dropped_on_wire": float(tr.dropped), "dropped_in_queue": float(self._queue_dropped),
+                    "dropped_on_wire": float(tr.dropped), "dropped_in_queue": float(queue_dropped),
                     "restarts": float(tr.restarts), "repeats": float(tr.repeats),
                     "reconnects": float(self._reconnects), "taring": float(self._calibration.taring),
                 },
@@ -161,7 +161,7 @@ class PadsSensor:
             return
         port = self._open_port()
         with self._lock:
-            self._queue.clear()
+            self._queue.reset()
             self._new_parts()
             self._state, self._reason = SensorState.CONNECTED, ""
         self._stop.clear()
@@ -172,9 +172,9 @@ class PadsSensor:
     # -------------------------------------------------------------- reader thread
 
     def _set_state(self, state: SensorState, reason: str) -> None:
-        with self._arrived:
+        with self._lock:
             self._state, self._reason = state, reason
-            self._arrived.notify_all()
+        self._queue.wake()  # a reader waiting for a frame also stops waiting on FAILED
 
     def _read_loop(self, port: Any) -> None:
         every = self.config.reconnect_s
@@ -235,7 +235,7 @@ class PadsSensor:
         """Parse bytes, queue their frames; False once the bad-message limit is passed (FAILED)."""
         t = self._clock.now()
         wall = time.monotonic()
-        with self._arrived:
+        with self._lock:
             samples = self._parser.feed(data)
             for sample in samples:
                 gap = self._tracker.advance(sample.seq, self._max_gap(wall))
@@ -249,11 +249,7 @@ class PadsSensor:
                 frame = Frame(sensor=self.name, t=t, seq=seq,
                               payload=PadSample(newtons=self._calibration.newtons(sample.counts), raw=sample.counts))
                 self._next_seq = seq + 1
-                if len(self._queue) == QUEUE_SIZE:
-                    self._queue_dropped += 1
-                self._queue.append(frame)
-            if samples:
-                self._arrived.notify_all()
+                self._queue.put(frame)
             fresh_bad = self._parser.bad - self._bad_seen
             self._bad_seen = self._parser.bad
             if fresh_bad and self._too_many_bad(fresh_bad, wall):
@@ -262,7 +258,7 @@ class PadsSensor:
                 self._reason = (f"more than {c.max_bad_per_s} bad {self._framing.message}s within 1 s on {c.port} "
                                 f"(last: {self._parser.last_bad}); check the board's baudrate ({c.baudrate}), "
                                 f"framing ({c.framing}) and pad count ({c.pads}) match the config")
-                self._arrived.notify_all()
+                self._queue.wake()
                 return False
         return True
 
@@ -277,13 +273,11 @@ class PadsSensor:
     def read(self, timeout: float) -> Frame | None:
         if not self._open:
             raise SensorNotOpen(f"pads {self.name!r}: read before open (or after close)")
-        with self._arrived:
-            if not self._queue and self._state is not SensorState.FAILED:
-                self._arrived.wait_for(lambda: bool(self._queue) or self._state is SensorState.FAILED,
-                                       timeout=max(timeout, 0.0))
-            if self._queue:
+        frame = self._queue.get(timeout, until=lambda: self._state is SensorState.FAILED)
+        with self._lock:
+            if frame is not None:
                 self._frames += 1
-                return self._queue.popleft()
+                return frame
             if self._state is SensorState.FAILED:
                 raise PadsFailed(f"pads {self.name!r}: {self._reason}")
             return None
@@ -296,15 +290,6 @@ class PadsSensor:
         if thread is not None:
             thread.join(_JOIN_S)  # the thread's serial read returns within _READ_SLICE_S
         self._open = False
+        self._queue.clear()
         with self._lock:
-            self._queue.clear()
             self._state, self._reason = SensorState.CLOSED, ""
-
-    def __enter__(self) -> PadsSensor:
-        self.open()
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.close()

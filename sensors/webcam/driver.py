@@ -17,9 +17,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections import deque
 from pathlib import Path
-from types import TracebackType
 from typing import Any
 
 import cv2
@@ -28,6 +26,7 @@ import numpy as np
 from sensors.base import (
     ColorImage,
     Frame,
+    SensorContext,
     SensorNotOpen,
     SensorSpec,
     SensorState,
@@ -35,6 +34,7 @@ from sensors.base import (
     SensorUnavailable,
 )
 from sensors.clock import Clock
+from sensors.frame_queue import FrameQueue
 from sensors.webcam.config import WebcamConfig
 
 QUEUE_SIZE = 2  # live frames waiting for read(); older ones are dropped
@@ -50,7 +50,7 @@ def _as_bgr(image: np.ndarray) -> np.ndarray:
     return image
 
 
-class WebcamSensor:
+class WebcamSensor(SensorContext):
     def __init__(self, config: WebcamConfig, clock: Clock, name: str = "webcam") -> None:
         self.config = config
         self.name = name
@@ -58,11 +58,9 @@ class WebcamSensor:
         self._spec = SensorSpec(name=name, kind="color", rate_hz=float(config.fps), width=config.width,
                                 height=config.height)
         self._lock = threading.Lock()
-        self._arrived = threading.Condition(self._lock)
         self._state = SensorState.CLOSED
         self._reason = ""
         self._frames = 0
-        self._dropped = 0
         self._reconnects = 0
         self._open = False
         # file mode
@@ -72,7 +70,7 @@ class WebcamSensor:
         self._file_fps = 0.0
         self._t_open = 0.0
         # live mode
-        self._queue: deque[Frame] = deque(maxlen=QUEUE_SIZE)
+        self._queue = FrameQueue(QUEUE_SIZE)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
@@ -83,8 +81,8 @@ class WebcamSensor:
     @property
     def status(self) -> SensorStatus:
         with self._lock:
-            return SensorStatus(state=self._state, reason=self._reason, frames=self._frames, dropped=self._dropped,
-                                extra={"reconnects": float(self._reconnects)})
+            return SensorStatus(state=self._state, reason=self._reason, frames=self._frames,
+                                dropped=self._queue.dropped, extra={"reconnects": float(self._reconnects)})
 
     # -------------------------------------------------------------- opening
 
@@ -152,9 +150,9 @@ class WebcamSensor:
             name=self.name, kind="color", rate_hz=fps if math.isfinite(fps) and fps > 0 else float(self.config.fps),
             width=w if w > 0 else self.config.width, height=h if h > 0 else self.config.height,
         )
+        self._queue.reset()
         with self._lock:
-            self._queue.clear()
-            self._frames = self._dropped = self._reconnects = 0
+            self._frames = self._reconnects = 0
             self._state, self._reason = SensorState.CONNECTED, ""
         self._stop.clear()
         self._thread = threading.Thread(target=self._capture_loop, args=(cap,), name=f"webcam-{self.name}", daemon=True)
@@ -192,11 +190,7 @@ class WebcamSensor:
                     continue
                 frame = Frame(sensor=self.name, t=t, seq=seq, payload=ColorImage(_as_bgr(image)))
                 seq += 1
-                with self._arrived:
-                    if len(self._queue) == self._queue.maxlen:
-                        self._dropped += 1
-                    self._queue.append(frame)
-                    self._arrived.notify_all()
+                self._queue.put(frame)
         finally:
             if cap is not None:
                 cap.release()
@@ -208,13 +202,11 @@ class WebcamSensor:
             raise SensorNotOpen(f"webcam {self.name!r}: read before open (or after close)")
         if self.config.kind == "file":
             return self._read_file()
-        with self._arrived:
-            if not self._queue:
-                self._arrived.wait_for(lambda: bool(self._queue), timeout=max(timeout, 0.0))
-            if not self._queue:
-                return None
-            self._frames += 1
-            return self._queue.popleft()
+        frame = self._queue.get(timeout)
+        if frame is not None:
+            with self._lock:
+                self._frames += 1
+        return frame
 
     def _read_file(self) -> Frame | None:
         image = self._next_image
@@ -250,15 +242,6 @@ class WebcamSensor:
             self._cap = None
         self._next_image = None
         self._open = False
+        self._queue.clear()
         with self._lock:
-            self._queue.clear()
             self._state, self._reason = SensorState.CLOSED, ""
-
-    def __enter__(self) -> WebcamSensor:
-        self.open()
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.close()
