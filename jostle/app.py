@@ -204,9 +204,10 @@ class App:
                 break
         t = self.clock.now()
         t0 = t
+        stepped_to = t  # the world has been stepped up to this clock time
         try:
             while True:
-                t += dt
+                t = max(t + dt, self.clock.now())  # late (live, slow display): draw now, never catch up frames
                 self.clock.sleep_until(t)
                 now = self.clock.now()
                 clock = time.perf_counter
@@ -231,7 +232,10 @@ class App:
                     spent["sensors"] += clock() - mark
                 observation = fusion.merge(now, list(latest.values()))
                 mark = clock()
-                snap = world.step(observation, dt)
+                # on simulated time this is exactly dt; live, a slow frame hands the world all the
+                # time that really passed (the world caps catch-up and reports what it dropped)
+                snap = world.step(observation, now - stepped_to)
+                stepped_to = now
                 spent["simulate"] += clock() - mark
                 for ob_name, obs in latest.items():  # an impulse acts once; contactors stay until replaced
                     if obs.impulses:

@@ -94,3 +94,25 @@ def test_cli_run_prints_where_the_output_is(tmp_path: Path, capsys: pytest.Captu
     assert code == 0, captured.err
     assert f"summary: {out / 'summary.json'}" in captured.out
     assert json.loads((out / "summary.json").read_text())["frames_rendered"] == 30
+
+
+class _LateClock:
+    """A live clock where each frame's work takes two frame times (a slow display)."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def now(self) -> float:
+        return self.t
+
+    def sleep_until(self, t: float) -> None:
+        self.t += 2.0 / 30.0  # the work done since the last sleep
+        self.t = max(self.t, t)
+
+
+def test_a_slow_loop_hands_the_world_all_the_time_that_passed() -> None:
+    clock = _LateClock()
+    app = App(_small_demo(), RunOptions(out_dir=None, duration_s=2.0, video=False, progress=False), clock=clock)
+    s = app.run()
+    assert s.frames_rendered < 40  # each frame took two frame times
+    assert s.sim_seconds == pytest.approx(clock.t, abs=1e-6)  # simulated time kept up with the clock
