@@ -27,17 +27,21 @@ for d in /usr/lib/x86_64-linux-gnu/dri /usr/lib/aarch64-linux-gnu/dri /usr/lib/d
   [ -e "$d/swrast_dri.so" ] && dri_ok=1
 done
 [ "$dri_ok" = 1 ] || missing+=("mesa-dri")
-if [ ${#missing[@]} -gt 0 ]; then
-  pkgs="libegl1 libgl1 libgl1-mesa-dri"
-  echo "setup: headless OpenGL libraries missing (${missing[*]}); installing Debian packages: $pkgs"
+pkgs=""
+[ ${#missing[@]} -gt 0 ] && pkgs="libegl1 libgl1 libgl1-mesa-dri"
+# Xvfb: a virtual display, so the window and kiosk tests run on machines without a screen
+command -v Xvfb >/dev/null 2>&1 || { missing+=("Xvfb"); pkgs="$pkgs xvfb"; }
+if [ -n "$pkgs" ]; then
+  echo "setup: missing ${missing[*]}; installing Debian packages:$pkgs"
   SUDO=""
   [ "$(id -u)" = 0 ] || SUDO="sudo -n"
   if command -v apt-get >/dev/null 2>&1 && $SUDO true 2>/dev/null; then
-    $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq $pkgs >/dev/null
+    $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq $pkgs >/dev/null \
+      || echo "setup: apt-get could not install$pkgs; headless rendering or the window tests may not run" >&2
   else
     echo "setup: cannot install them here (not root, no passwordless sudo, or no apt-get)." >&2
-    echo "setup: ask an administrator to run: apt-get install $pkgs" >&2
-    echo "setup: everything but headless rendering will still work." >&2
+    echo "setup: ask an administrator to run: apt-get install$pkgs" >&2
+    echo "setup: everything but headless rendering (and the window tests) will still work." >&2
   fi
 fi
 
