@@ -113,7 +113,7 @@ class App:
         sensors: dict[str, Sensor] = {}
         observers: dict[str, tuple[str, Observer]] = {}  # observer name -> (sensor name, observer)
         for entry in cfg.sensors:
-            sensors[entry.name] = SENSOR_TYPES[entry.type].loader(entry.config, entry.name, self.clock)
+            sensors[entry.name] = SENSOR_TYPES[entry.type].load(entry.config, entry.name, self.clock)
         for ob in cfg.observers:
             observers[ob.name] = (ob.sensor, observer_types()[ob.type].build(ob.config, ob.calibration, ob.sensor))
         recordings = [str(e.config.path) for e in cfg.sensors if _is_replay(e.config)]

@@ -32,7 +32,7 @@ def record_config(config_path: Path, out: Path, *, duration: float | None, force
     step = 1.0 / 120.0
     try:
         for e in config.sensors:
-            sensors.append(Recorder(SENSOR_TYPES[e.type].loader(e.config, e.name, clock), writer))
+            sensors.append(Recorder(SENSOR_TYPES[e.type].load(e.config, e.name, clock), writer))
         for s in sensors:
             s.open()
         print(f"jostle: recording {len(sensors)} sensor(s) to {out}; Ctrl-C stops", file=sys.stderr)

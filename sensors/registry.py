@@ -25,42 +25,38 @@ class SensorType:
     loader: Callable[[Any, str, Clock], Sensor]  # (config, sensor name, clock) → an unopened Sensor
     description: str
 
+    def load(self, config: object, name: str, clock: Clock) -> Sensor:
+        """The unopened sensor for ``config`` (checked to be this type's config class)."""
+        if not isinstance(config, self.config):
+            raise TypeError(f"sensor {name!r}: expected a {self.config.__name__}, got {type(config).__name__}")
+        return self.loader(config, name, clock)
 
-def _load_webcam(config: Any, name: str, clock: Clock) -> Sensor:
-    if not isinstance(config, WebcamConfig):
-        raise TypeError(f"webcam sensor {name!r}: expected a WebcamConfig, got {type(config).__name__}")
+
+def _load_webcam(config: WebcamConfig, name: str, clock: Clock) -> Sensor:
     from sensors.webcam.driver import WebcamSensor
 
     return WebcamSensor(config, clock, name)
 
 
-def _load_pads(config: Any, name: str, clock: Clock) -> Sensor:
-    if not isinstance(config, PadsConfig):
-        raise TypeError(f"pads sensor {name!r}: expected a PadsConfig, got {type(config).__name__}")
+def _load_pads(config: PadsConfig, name: str, clock: Clock) -> Sensor:
     from sensors.pads.driver import PadsSensor
 
     return PadsSensor(config, clock, name)
 
 
-def _load_replay(config: Any, name: str, clock: Clock) -> Sensor:
-    if not isinstance(config, ReplayConfig):
-        raise TypeError(f"replay sensor {name!r}: expected a ReplayConfig, got {type(config).__name__}")
+def _load_replay(config: ReplayConfig, name: str, clock: Clock) -> Sensor:
     from sensors.replay import Replay
 
     return Replay(config.path, clock, channel=config.channel or None, name=name, loop=config.loop)
 
 
-def _load_oak(config: Any, name: str, clock: Clock) -> Sensor:
-    if not isinstance(config, OakConfig):
-        raise TypeError(f"oak sensor {name!r}: expected an OakConfig, got {type(config).__name__}")
+def _load_oak(config: OakConfig, name: str, clock: Clock) -> Sensor:
     from sensors.oak.driver import OakSensor
 
     return OakSensor(config, clock, name)
 
 
-def _load_faulty_replay(config: Any, name: str, clock: Clock) -> Sensor:
-    if not isinstance(config, FaultyReplayConfig):
-        raise TypeError(f"faulty-replay sensor {name!r}: expected a FaultyReplayConfig, got {type(config).__name__}")
+def _load_faulty_replay(config: FaultyReplayConfig, name: str, clock: Clock) -> Sensor:
     from sensors.faults import FaultySensor
     from sensors.replay import Replay
 
