@@ -13,7 +13,6 @@ instance per frame; read back as GL_RGBA. Rendering never steps the sim: it draw
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Mapping, Sequence
 from types import ModuleType
@@ -48,6 +47,7 @@ from render.scene import (
     contact_point,
     contact_shadows,
     figure_colours,
+    orientation_mismatch,
     people_capsules,
     posed_capsules,
     shadow_blobs,
@@ -290,7 +290,9 @@ class Renderer:
         if n == 0:
             return np.zeros((0, 0, 3)), np.zeros((0, 0, 3)), np.zeros((0, 0)), np.zeros((0, CAPSULE_FLOATS))
         rots = body_rotations(np.array([c.orientation for c in chars], dtype=float))
-        self._check_frames(chars, rots)
+        if "frame" not in self._warned and (problem := orientation_mismatch(chars, rots)):
+            self._warned.add("frame")
+            warnings.warn(problem, stacklevel=2)
         positions = np.array([c.position for c in chars], dtype=float)
         heights = np.array([c.height for c in chars], dtype=float)
         behaviours = self.fade.behaviours(t, chars)
@@ -338,26 +340,6 @@ class Renderer:
                 f"render: no keyframe set for character {c.name!r} (sets for: {', '.join(sorted(keyframes))})"
             )
         return found
-
-    def _check_frames(self, chars: tuple[CharacterSnapshot, ...], rots: np.ndarray) -> None:
-        """Warn once if an upright character's orientation faces away from its heading: the renderer
-        assumes the sim's body frame (x forward, y left, z up)."""
-        if "frame" in self._warned or not chars:
-            return
-        tilt = np.array([c.tilt for c in chars], dtype=float)
-        heading = np.array([c.heading for c in chars], dtype=float)
-        yaw = np.arctan2(rots[:, 1, 0], rots[:, 0, 0])  # skeleton x (forward) in stage axes
-        off = np.abs(np.remainder(yaw - heading + math.pi, 2.0 * math.pi) - math.pi)
-        bad = (np.abs(tilt).max(axis=1) < 0.3) & (off > 0.35)
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            self._warned.add("frame")
-            warnings.warn(
-                f"render: character {chars[i].name!r}: orientation faces {math.degrees(float(yaw[i])):.0f}° but "
-                f"heading is {math.degrees(chars[i].heading):.0f}°; the renderer assumes body axes x forward, "
-                "y left, z up",
-                stacklevel=3,
-            )
 
     # ------------------------------------------------------------------ window and life cycle
 

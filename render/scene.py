@@ -9,6 +9,7 @@ Keyframe poses are in the body frame with the skeleton's axes (x forward, y up, 
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -205,3 +206,23 @@ def contact_point(
                 surface = q[i] + (p - q[i]) / max(float(d[i]), 1e-9) * radii[i]
                 best = (gap, surface)
     return None if best is None else best[1]
+
+
+def orientation_mismatch(chars: Sequence[CharacterSnapshot], rots: np.ndarray) -> str | None:
+    """A message if an upright character's orientation faces away from its heading, else None: the
+    renderer assumes the sim's body frame (x forward, y left, z up). ``rots``: (N, 3, 3) body rotations."""
+    if not chars:
+        return None
+    tilt = np.array([c.tilt for c in chars], dtype=float)
+    heading = np.array([c.heading for c in chars], dtype=float)
+    yaw = np.arctan2(rots[:, 1, 0], rots[:, 0, 0])  # skeleton x (forward) in stage axes
+    off = np.abs(np.remainder(yaw - heading + math.pi, 2.0 * math.pi) - math.pi)
+    bad = (np.abs(tilt).max(axis=1) < 0.3) & (off > 0.35)
+    if not np.any(bad):
+        return None
+    i = int(np.argmax(bad))
+    return (
+        f"render: character {chars[i].name!r}: orientation faces {math.degrees(float(yaw[i])):.0f}° but "
+        f"heading is {math.degrees(chars[i].heading):.0f}°; the renderer assumes body axes x forward, "
+        "y left, z up"
+    )
