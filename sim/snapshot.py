@@ -21,6 +21,19 @@ class CharacterState(StrEnum):
 
 
 @dataclass(frozen=True, slots=True)
+class LinkPose:
+    """One rigid link of an articulated character (issue G) or a quadruped (issue H), in stage metres.
+
+    ``position`` is the link frame's origin (pybullet's link world position for the link frame, i.e. the
+    joint), ``orientation`` its world orientation (x, y, z, w).
+    """
+
+    name: str
+    position: Vec3
+    orientation: Quat
+
+
+@dataclass(frozen=True, slots=True)
 class CharacterSnapshot:
     """One character after a step.
 
@@ -29,7 +42,7 @@ class CharacterSnapshot:
     ``d_front`` / ``d_side`` are the paper's travelled distances (eqs. 6–7), metres.
     ``behaviour`` is B, the animation behaviour the AI picks (e.g. "walk", "stand_up");
     ``intent`` is what the AI is doing (e.g. "wander", "flee").
-    ``kind`` and ``balance_load`` were added later (defaults keep older constructors working).
+    ``kind``, ``balance_load`` and ``links`` were added later (defaults keep older constructors working).
     """
 
     name: str
@@ -49,6 +62,7 @@ class CharacterSnapshot:
     height: float  # metres, from the character spec (for drawing)
     kind: str = ""  # the character spec's name (e.g. "walker", "critter"): which figure to draw
     balance_load: float = 0.0  # 0 balanced … ≥ 1 beyond what its bounded controller can recover (10: down)
+    links: tuple[LinkPose, ...] = ()  # articulated kinds only: every link's world pose (render draws these)
 
 
 @dataclass(frozen=True, slots=True)
