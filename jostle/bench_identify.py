@@ -3,7 +3,7 @@
 The experiment and the observer are ``sim.bench_identify``'s; this module (jostle may import render)
 gives the observer what a viewer of the installation sees: the joint positions of the figure the
 keyframe set draws for each snapshot — the correspondence function ``render.keyframes
-.query_from_snapshot``, the set's pose, forward kinematics of ``render.mocap.HUMANOID``, scaled to the
+.query_from_snapshot``, the set's pose, forward kinematics of ``sim.motion.mocap.HUMANOID``, scaled to the
 character's height and placed with the body's position and orientation — in the heading frame at the
 push. The viewer's eye adds 2 cm of noise to every joint position of every sample. The rigid body's own
 position and orientation are scored too (``body``), so the two views can be compared in one run.
@@ -39,8 +39,8 @@ def pose_view(keyframes: KeyframeSet) -> Any:
     import numpy as np
 
     from render.keyframes import query_from_snapshot
-    from render.mocap import HUMANOID
     from sim.frames import frames
+    from sim.motion.mocap import HUMANOID
 
     # skeleton axes (x forward, y up, z right) → body axes (x forward, y left, z up)
     skeleton_to_body = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])

@@ -206,7 +206,7 @@ def _depth_calibration(images: list[Any], camera_position: tuple[float, float, f
 
 def _joint_sets(frame_truth: Any, part: str) -> list[tuple[np.ndarray, np.ndarray]]:
     """(position, velocity) of every true hand (wrist) or foot (ankle–toe middle) on the stage."""
-    from render.mocap import HUMANOID
+    from sim.motion.mocap import HUMANOID
 
     names = _HANDS if part == "hand" else _FEET
     out = []
@@ -255,7 +255,7 @@ def _webcam_errors(obs: Any, frame_truth: Any, camera: Any, homography: np.ndarr
 
 def visible_people(frame_truth: Any, camera: Any) -> int | None:
     """How many pelvises are inside the view; None when one is within 0.4 m of its edge (ambiguous)."""
-    from render.mocap import HUMANOID
+    from sim.motion.mocap import HUMANOID
 
     root = HUMANOID.names.index("root")
     seen = 0

@@ -6,8 +6,8 @@ from __future__ import annotations
 def user_facing(e: BaseException) -> str | None:
     """The one-line message for an error the user can fix, or None for an internal error."""
     from jostle.configtree import ConfigError
-    from render.mocap import MotionFileError
     from sensors.base import SensorError
+    from sim.motion.mocap import MotionFileError
 
     if isinstance(e, ConfigError | SensorError | MotionFileError):
         return str(e)

@@ -62,7 +62,7 @@ def scene(n: int, seed: int, t: float) -> tuple[Any, Any]:
 
 def _tilted(heading: float, tx: float, tz: float) -> tuple[float, float, float, float]:
     """Body orientation (x y z w): yaw by heading about z, then lean forward by tx and right by tz."""
-    from render import quaternion as quat
+    from sim.motion import quaternion as quat
 
     yaw = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), heading)
     pitch = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), tx)  # forward: +x tips down about body +y

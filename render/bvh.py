@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from render import quaternion as quat
-from render.mocap import JOINTS, MotionClip, MotionFileError
 from render.skeletons import HUMANOID_FIGURE, Figure
+from sim.motion import quaternion as quat
+from sim.motion.mocap import JOINTS, MotionClip, MotionFileError
 
 # our bone → (BVH names for where it starts, BVH names for where it points)
 MAPPING: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {

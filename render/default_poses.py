@@ -22,8 +22,6 @@ import math
 
 import numpy as np
 
-from render import quaternion as quat
-from render.mocap import HUMANOID, JOINTS, MotionClip, pybullet_motion_path
 from render.skeleton_pose import (
     X,
     Z,
@@ -36,6 +34,8 @@ from render.skeleton_pose import (
     yaw_rotation,
 )
 from render.skeletons import Figure
+from sim.motion import quaternion as quat
+from sim.motion.mocap import HUMANOID, JOINTS, MotionClip, pybullet_motion_path
 
 Posed = tuple[np.ndarray, np.ndarray]  # (root_offset (3,), rotations (1 + J, 4))
 Raw = tuple[np.ndarray, np.ndarray]  # (root_rot, joint_rots) before placing in the body frame

@@ -26,12 +26,12 @@ from typing import Any
 
 import numpy as np
 
-from render import quaternion as quat
 from render.keyframe_file import KeyframeError
 from render.keyframe_import import Placement, add_animation
 from render.keyframes import KeyframeSet
-from render.mocap import JOINTS
 from render.skeletons import figure_for
+from sim.motion import quaternion as quat
+from sim.motion.mocap import JOINTS
 
 FPS = 30.0
 AXES_NODE = "jostle_axes"

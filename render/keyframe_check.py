@@ -28,7 +28,7 @@ import numpy as np
 
 from render.interp import STANDARD_AXES
 from render.keyframe_file import KeyframeError
-from render.mocap import JOINTS
+from sim.motion.mocap import JOINTS
 
 THETA_GAP = 0.8  # radians between neighbouring keys along Θ
 CYCLE_GAP = 0.35  # of a cycle between neighbouring keys along Dx/Dz

@@ -55,9 +55,9 @@ from typing import Any
 import numpy as np
 
 from render.interp import STANDARD_AXES, Curve, Family, Space
-from render.mocap import JOINTS, Skeleton
 from render.pose_text import number, parse_pose
 from render.skeletons import SKELETONS
+from sim.motion.mocap import JOINTS, Skeleton
 
 FORMAT = 1
 _TOP_KEYS = {

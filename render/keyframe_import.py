@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from render import quaternion as quat
 from render.keyframe_file import FORMAT, KeyframeError
-from render.mocap import MotionClip
 from render.pose_text import format_pose
 from render.skeleton_pose import X, in_body_frame, standing_height, tilt_rotation, yaw_rotation
 from render.skeletons import FIGURES, Figure
+from sim.motion import quaternion as quat
+from sim.motion.mocap import MotionClip
 
 Posed = tuple[np.ndarray, np.ndarray]
 

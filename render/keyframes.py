@@ -29,10 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-from render import quaternion as quat
 from render.interp import BehaviourTable, Curve, Family, Space, meeting_points
 from render.keyframe_file import KeyframeError, SetData, read_set
-from render.mocap import JOINTS, Skeleton
+from sim.motion import quaternion as quat
+from sim.motion.mocap import JOINTS, Skeleton
 from sim.snapshot import CharacterSnapshot
 
 __all__ = [

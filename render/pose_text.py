@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from render import quaternion as quat
-from render.mocap import JOINTS, REVOLUTE, REVOLUTE_AXIS
+from sim.motion import quaternion as quat
+from sim.motion.mocap import JOINTS, REVOLUTE, REVOLUTE_AXIS
 
 _POSE_KEYS = {"root_offset", "root_rotation", "joints"}
 

@@ -17,13 +17,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from render import quaternion as quat
 from render.draw import Renderer
 from render.keyframes import KeyframeSet
 from render.scene import body_rotations, posed_capsules
 from render.skeletons import figure_for
 from render.style import Camera, RenderStyle
 from render.video import VideoOut, save_gif
+from sim.motion import quaternion as quat
 from sim.snapshot import CharacterSnapshot, CharacterState, WorldSnapshot
 
 TILE = 220

@@ -15,10 +15,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from interaction.types import BodyObservation
-from render import quaternion as quat
 from render.keyframes import Pose
 from render.skeletons import SHIRT, Figure
 from render.style import Camera, Colours, rgb
+from sim.motion import quaternion as quat
 from sim.snapshot import CharacterSnapshot, CharacterState
 
 __all__ = ["CAPSULE_FLOATS", "Camera", "SHADOW_FLOATS", "body_rotations", "posed_capsules"]
@@ -39,7 +39,7 @@ def body_rotations(orientations: np.ndarray) -> np.ndarray:
 @functools.cache
 def _levels(figure: Figure) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], ...]:
     """Bones grouped by depth below the root: (bones, their parents, their rotation slot or −1)."""
-    from render.mocap import JOINTS
+    from sim.motion.mocap import JOINTS
 
     s = figure.skeleton
     depth = [0] * len(s.names)

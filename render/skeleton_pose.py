@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
-from render import quaternion as quat
-from render.mocap import JOINTS
 from render.skeletons import HUMANOID_FIGURE, Figure
+from sim.motion import quaternion as quat
+from sim.motion.mocap import JOINTS
 
 X = np.array([1.0, 0.0, 0.0])
 Y = np.array([0.0, 1.0, 0.0])

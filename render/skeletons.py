@@ -1,7 +1,7 @@
 """The skeletons keyframe sets may name, and the figure drawn on each: capsules between points of the
 skeleton, with radii and materials, and the link masses that place its centre of mass.
 
-- ``humanoid``: the DeepMimic humanoid (``render.mocap.HUMANOID``), 1.62 m standing.
+- ``humanoid``: the DeepMimic humanoid (``sim.motion.mocap.HUMANOID``), 1.62 m standing.
 - ``critter``: the same joints with a small creature's proportions — a big head, a stout trunk, short
   arms and short legs (for the 0.8 m, 12 kg character). Poses made for the humanoid drive it as
   they are: every joint keeps its name and its axes; only bone lengths, radii and masses differ.
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from render.mocap import HUMANOID, URDF_SCALE, Skeleton
+from sim.motion.mocap import HUMANOID, URDF_SCALE, Skeleton
 
 SHIRT, TROUSERS, SKIN, SHOES = 0, 1, 2, 3
 

@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from jostle.cli import main
-from render import quaternion as quat
 from render.bvh import bvh_to_clip, read_bvh
 from render.gltf_io import export_gltf, import_gltf
 from render.keyframe_check import check_set
 from render.keyframe_import import Placement, import_clip
 from render.keyframes import KeyframeQuery, KeyframeSet
-from render.mocap import HUMANOID, JOINTS, MotionClip, pybullet_motion_path
+from sim.motion import quaternion as quat
+from sim.motion.mocap import HUMANOID, JOINTS, MotionClip, pybullet_motion_path
 
 ROOT = Path(__file__).resolve().parent.parent / "configs" / "keyframes"
 
@@ -275,7 +275,7 @@ def test_bvh_is_read_and_retargeted_by_bone_directions(tmp_path: Path) -> None:
 
 def test_import_errors_are_one_line(tmp_path: Path) -> None:
     from render.keyframe_file import KeyframeError
-    from render.mocap import MotionFileError
+    from sim.motion.mocap import MotionFileError
 
     bad = tmp_path / "bad.bvh"
     bad.write_text("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0\n", encoding="utf-8")

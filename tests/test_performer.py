@@ -16,9 +16,9 @@ import pytest
 from jostle.synth.camera import apply_homography
 from jostle.synth.dress import dressed_urdf
 from jostle.synth.performer import PerformerConfig, PerformerSensor, PerformerTruth
-from render.mocap import HUMANOID
 from sensors.base import ColorImage, Frame, SensorNotOpen, SensorState, frame_digest
 from sensors.clock import SimClock
+from sim.motion.mocap import HUMANOID
 
 SHORT = PerformerConfig(duration_s=4.0, fps=10.0)
 

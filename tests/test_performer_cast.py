@@ -13,8 +13,8 @@ from jostle.synth.cast import plan_cast
 from jostle.synth.config import PerformerConfig
 from jostle.synth.performer import PerformerSensor
 from jostle.synth.scene import Performance
-from render.mocap import HUMANOID
 from sensors.clock import SimClock
+from sim.motion.mocap import HUMANOID
 
 CROSS = PerformerConfig(people=2, route="crossing", duration_s=6.0, empty_s=1.0, fps=5.0, width=160, height=120)
 

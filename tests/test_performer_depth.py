@@ -14,9 +14,9 @@ import pytest
 from jostle.synth.config import DepthCameraConfig, PerformerConfig
 from jostle.synth.depth import DepthTruth, PerformerDepth, occluded_in_second_view, sigma_depth_m
 from jostle.synth.scene import Performance
-from render.mocap import HUMANOID
 from sensors.base import DepthImage, Frame, SensorState, frame_digest
 from sensors.clock import SimClock
+from sim.motion.mocap import HUMANOID
 
 PEOPLE = PerformerConfig(people=2, route="crossing", duration_s=4.5, empty_s=0.5, fps=5.0, width=96, height=72)
 OAK = DepthCameraConfig(width=320, height=200, fps=4.0)

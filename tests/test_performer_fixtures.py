@@ -21,13 +21,13 @@ from jostle.synth.truth import (
     read_pad_layout,
     read_truth,
 )
-from render.mocap import HUMANOID
 from sensors.base import ColorImage, DepthImage, Frame, PadSample, RecordingCorrupt, frame_digest
 from sensors.clock import SimClock
 from sensors.record import RecordingWriter
 from sensors.recording_info import describe_recording, iter_frames
 from sensors.replay import Replay
 from sensors.testing import check_sensor
+from sim.motion.mocap import HUMANOID
 
 FIXTURES = Path(__file__).parent / "fixtures"
 PEOPLE = {"crossing2.mcap": 2, "group3.mcap": 3}

@@ -26,9 +26,9 @@ from jostle.synth.pads import (
     load_pad_layout,
 )
 from jostle.synth.scene import Performance
-from render.mocap import HUMANOID
 from sensors.base import Frame, PadSample, frame_digest
 from sensors.clock import SimClock
+from sim.motion.mocap import HUMANOID
 
 _RIGHT_WRIST = HUMANOID.names.index("right_wrist")
 CROSS = PerformerConfig(people=2, route="crossing", duration_s=6.0, empty_s=1.0, fps=5.0, width=96, height=72)

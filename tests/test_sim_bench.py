@@ -91,7 +91,7 @@ def test_the_drawn_figure_view_places_joints_on_the_body(trials: list[Trial]) ->
     """jostle's variant watches the keyframed figure: joints in the heading frame at the push."""
     from jostle.bench_identify import DEFAULT_SET, pose_view
     from render.keyframes import KeyframeSet
-    from render.mocap import HUMANOID
+    from sim.motion.mocap import HUMANOID
 
     trial = trials[0]
     joints, angles = pose_view(KeyframeSet.load(DEFAULT_SET))(trial)

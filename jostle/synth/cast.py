@@ -19,7 +19,7 @@ import numpy as np
 
 from jostle.synth.choreography import Choreography, SegmentPath, scaled_clip
 from jostle.synth.config import PerformerConfig, load_clip
-from render.mocap import MotionClip
+from sim.motion.mocap import MotionClip
 
 MASS_AT_SCALE_1_KG = 70.0
 """Body mass of the scale-1 humanoid (1.6 m); a person of scale s weighs this × s² (constant BMI)."""

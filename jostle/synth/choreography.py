@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from render import quaternion as quat
-from render.mocap import HUMANOID, MotionClip
+from sim.motion import quaternion as quat
+from sim.motion.mocap import HUMANOID, MotionClip
 
 Y_UP_TO_Z_UP = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), math.pi / 2)
 """Rotation taking the clips' Y-up frame (x forward, z right) to the stage's z-up frame (x, y = left)."""
@@ -50,17 +50,17 @@ class StagePose:
 
     ``rotation`` (x y z w) is the root's stage orientation — the value for pybullet's
     ``resetBasePositionAndOrientation`` of the Y-up DeepMimic URDF. ``joint_rots`` are the clips'
-    local joint rotations in ``render.mocap.JOINTS`` order.
+    local joint rotations in ``sim.motion.mocap.JOINTS`` order.
     """
 
     position: np.ndarray  # (3,) root (pelvis) joint, stage metres
     rotation: np.ndarray  # (4,)
     joint_rots: np.ndarray  # (J, 4)
     mocap_rotation: np.ndarray  # (4,) the same root rotation expressed in the Y-up frame
-    scale: float = 1.0  # body size: every bone of ``render.mocap.HUMANOID`` times this
+    scale: float = 1.0  # body size: every bone of ``sim.motion.mocap.HUMANOID`` times this
 
     def joint_positions(self) -> np.ndarray:
-        """Stage positions (B, 3) of every bone of ``render.mocap.HUMANOID``, in its ``names`` order."""
+        """Stage positions (B, 3) of every bone of ``sim.motion.mocap.HUMANOID``, in its ``names`` order."""
         return stage_joint_positions([self])[0]
 
 

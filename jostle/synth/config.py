@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 
 from jostle.synth.camera import PinholeCamera
-from render.mocap import MotionClip, MotionFileError, pybullet_motion_path
+from sim.motion.mocap import MotionClip, MotionFileError, pybullet_motion_path
 
 Route = Literal["round", "crossing"]
 MAX_PEOPLE = 4

@@ -15,7 +15,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-from render.mocap import URDF_SCALE
+from sim.motion.mocap import URDF_SCALE
 
 RGBA = tuple[float, float, float, float]
 

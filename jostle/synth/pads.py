@@ -31,10 +31,10 @@ from jostle.synth.choreography import SegmentPath, StagePose, mocap_to_stage, st
 from jostle.synth.config import check_number, check_whole
 from jostle.synth.scene import Performance
 from jostle.synth.timeline import TimelineSensor
-from render import quaternion as quat
-from render.mocap import HUMANOID
 from sensors.base import PadSample, SensorSpec
 from sensors.clock import Clock
+from sim.motion import quaternion as quat
+from sim.motion.mocap import HUMANOID
 
 GRAVITY = 9.80665
 TOUCH_M = 0.025  # a surface this close to the floor starts to touch it

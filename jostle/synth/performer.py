@@ -28,9 +28,9 @@ from jostle.synth.puppet import HumanoidPuppet, PuppetImage
 from jostle.synth.room import RoomImage
 from jostle.synth.scene import Performance, PersonState, compose_colour
 from jostle.synth.timeline import TimelineSensor
-from render.mocap import HUMANOID
 from sensors.base import ColorImage, SensorNotOpen, SensorSpec
 from sensors.clock import Clock
+from sim.motion.mocap import HUMANOID
 
 __all__ = ["PerformerConfig", "PerformerSensor", "PerformerTruth"]
 
@@ -39,7 +39,7 @@ __all__ = ["PerformerConfig", "PerformerSensor", "PerformerTruth"]
 class PerformerTruth:
     """What is really in front of the camera at time ``t`` (loop clock).
 
-    ``joints``/``velocities`` hold every bone of ``render.mocap.HUMANOID`` (root, chest, neck,
+    ``joints``/``velocities`` hold every bone of ``sim.motion.mocap.HUMANOID`` (root, chest, neck,
     head_top, hips, knees, ankles, toes, shoulders, elbows, wrists) of person 0 in stage metres and
     m/s while that person is on its path (even outside the picture); they are empty while the
     person is off the stage. ``people`` holds everyone's state (ids 0, 1, …). ``parts`` is the

@@ -28,8 +28,8 @@ import numpy as np
 from jostle.synth.camera import PinholeCamera
 from jostle.synth.choreography import StagePose
 from jostle.synth.dress import PALETTES, dressed_urdf
-from render.mocap import JOINTS, REVOLUTE, URDF_SCALE
 from sensors.base import SensorUnavailable
+from sim.motion.mocap import JOINTS, REVOLUTE, URDF_SCALE
 
 
 @contextmanager

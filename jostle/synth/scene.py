@@ -21,8 +21,8 @@ from jostle.synth.choreography import StagePose, stage_joint_positions
 from jostle.synth.config import PerformerConfig
 from jostle.synth.puppet import HumanoidPuppet, PuppetImage
 from jostle.synth.room import RoomImage, render_room
-from render.mocap import HUMANOID
 from sensors.base import SensorNotOpen
+from sim.motion.mocap import HUMANOID
 
 VELOCITY_STEP_S = 1.0 / 480.0  # velocities: central differences over ±this (one-sided at the path's ends)
 
@@ -30,7 +30,7 @@ VELOCITY_STEP_S = 1.0 / 480.0  # velocities: central differences over ±this (on
 @dataclass(frozen=True, eq=False)
 class PersonState:
     """One person at one moment. ``joints``/``velocities`` (B, 3) hold every bone of
-    ``render.mocap.HUMANOID`` (in ``HUMANOID.names`` order) in stage metres and m/s; (0, 3) while
+    ``sim.motion.mocap.HUMANOID`` (in ``HUMANOID.names`` order) in stage metres and m/s; (0, 3) while
     the person is not on the stage (``pose`` is None)."""
 
     id: int

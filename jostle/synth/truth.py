@@ -4,7 +4,7 @@ Topic ``truth``, JSON messages with schema ``jostle.PerformerTruth`` (:data:`TRU
 at the time of every camera frame of the recording. Each holds, for every person of the
 performance: ``id`` (0, 1, …; the index of the puppet, the same in every message), ``size``
 (body scale, 1.0 = the 1.6 m humanoid), ``mass_kg``, ``present`` (on the stage at all), and
-while present ``joints`` and ``velocities``: every bone of ``render.mocap.HUMANOID`` by name, in
+while present ``joints`` and ``velocities``: every bone of ``sim.motion.mocap.HUMANOID`` by name, in
 stage metres and m/s. With pads recorded it also holds ``pads``: the true force on each pad
 (newtons, before the board's noise and rounding).
 
@@ -26,10 +26,10 @@ import numpy as np
 from jostle.synth.camera import PinholeCamera
 from jostle.synth.pads import PadBoardConfig, PadLayout, PadPlacement
 from jostle.synth.scene import PersonState
-from render.mocap import HUMANOID
 from sensors.base import RecordingCorrupt
 from sensors.recording_info import describe_recording
 from sensors.recording_stream import RecordingStream
+from sim.motion.mocap import HUMANOID
 
 TRUTH_TOPIC = "truth"
 TRUTH_SCHEMA_NAME = "jostle.PerformerTruth"

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from render import quaternion as quat
+from sim.motion import quaternion as quat
 
 JOINTS: tuple[str, ...] = (
     "chest",
