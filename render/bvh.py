@@ -1,9 +1,7 @@
-"""BVH motion capture, read and retargeted onto a jostle skeleton (no dependency: the format is small).
+"""BVH motion capture retargeted onto a jostle figure's skeleton (the file is parsed by ``sim.motion.bvh``).
 
-A BVH file is a joint hierarchy (OFFSET, CHANNELS, nested JOINT / End Site) and a MOTION block of
-frames, each the channel values in hierarchy order (positions in the file's units, rotations in
-degrees, applied in the order the channels are listed). Nothing is assumed about the file's up axis,
-units or rest pose: the retarget works from joint *positions* only —
+Nothing is assumed about the file's up axis, units or rest pose: the retarget works from joint
+*positions* only —
 
 - the up axis is the rest pose's direction from the hips to the head, the character's right the
   direction from the left to the right thigh;
@@ -19,14 +17,15 @@ usual CMU, Mixamo and Motion Builder spellings; ``MAPPING`` lists them.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from render.skeletons import HUMANOID_FIGURE, Figure
 from sim.motion import quaternion as quat
+from sim.motion.bvh import BvhMotion, read_bvh
 from sim.motion.mocap import JOINTS, MotionClip, MotionFileError
+
+__all__ = ["MAPPING", "BvhMotion", "bvh_to_clip", "read_bvh"]
 
 # our bone → (BVH names for where it starts, BVH names for where it points)
 MAPPING: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
@@ -51,98 +50,6 @@ MAPPING |= {
 }
 HIPS = ("hips", "pelvis", "root", "hip")
 HEAD = ("head", "head_end", "headend", "neck_end")
-
-
-@dataclass(frozen=True, eq=False)
-class BvhMotion:
-    names: tuple[str, ...]  # joints and end sites ("<parent>_end")
-    parents: tuple[int, ...]
-    offsets: np.ndarray  # (B, 3)
-    frame_time: float
-    positions: np.ndarray  # (F, B, 3) world positions of every joint, file units and axes
-
-
-def read_bvh(path: str | Path) -> BvhMotion:
-    """Parse a BVH file and run its forward kinematics; MotionFileError (one line) when it is not BVH."""
-    path = Path(path)
-    try:
-        tokens = path.read_text(encoding="utf-8", errors="replace").split()
-    except FileNotFoundError:
-        raise MotionFileError(f"{path}: no such BVH file") from None
-    names: list[str] = []
-    parents: list[int] = []
-    offsets: list[list[float]] = []
-    channels: list[list[str]] = []
-    stack: list[int] = []
-    i = 0
-
-    def fail(msg: str) -> MotionFileError:
-        return MotionFileError(f"{path}: not a BVH file I can read ({msg})")
-
-    if not tokens or tokens[0].upper() != "HIERARCHY":
-        raise fail("it does not start with HIERARCHY")
-    i = 1
-    try:
-        while tokens[i].upper() != "MOTION":
-            t = tokens[i].upper()
-            if t in ("ROOT", "JOINT"):
-                names.append(tokens[i + 1])
-                parents.append(stack[-1] if stack else -1)
-                offsets.append([0.0, 0.0, 0.0])
-                channels.append([])
-                i += 2
-            elif t == "END":
-                names.append(f"{names[stack[-1]]}_end")
-                parents.append(stack[-1])
-                offsets.append([0.0, 0.0, 0.0])
-                channels.append([])
-                i += 2
-            elif t == "{":
-                stack.append(len(names) - 1)
-                i += 1
-            elif t == "}":
-                stack.pop()
-                i += 1
-            elif t == "OFFSET":
-                offsets[stack[-1]] = [float(x) for x in tokens[i + 1 : i + 4]]
-                i += 4
-            elif t == "CHANNELS":
-                n = int(tokens[i + 1])
-                channels[stack[-1]] = [c.lower() for c in tokens[i + 2 : i + 2 + n]]
-                i += 2 + n
-            else:
-                raise fail(f"unexpected {tokens[i]!r}")
-        frames = int(tokens[i + 2])
-        frame_time = float(tokens[i + 5])
-        values = np.array([float(x) for x in tokens[i + 6 :]], dtype=float)
-    except (IndexError, ValueError) as e:
-        raise fail(str(e)) from None
-    width = sum(len(c) for c in channels)
-    if frames < 1 or values.size != frames * width:
-        raise fail(f"expected {frames} frames of {width} numbers, got {values.size} numbers")
-    data = values.reshape(frames, width)
-    off = np.array(offsets)
-    pos = np.zeros((frames, len(names), 3))
-    rot = np.tile(quat.IDENTITY, (frames, len(names), 1))
-    col = 0
-    for b, chans in enumerate(channels):
-        local_t = np.tile(off[b], (frames, 1))
-        local_r = np.tile(quat.IDENTITY, (frames, 1))
-        for c in chans:
-            v = data[:, col]
-            col += 1
-            axis = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}[c[0]]
-            if c.endswith("position"):
-                local_t[:, "xyz".index(c[0])] = v
-            elif c.endswith("rotation"):
-                local_r = quat.multiply(local_r, quat.from_axis_angle(axis, np.radians(v)))
-        p = parents[b]
-        if p < 0:
-            pos[:, b], rot[:, b] = local_t, local_r
-        else:
-            pos[:, b] = pos[:, p] + quat.rotate(rot[:, p], local_t)
-            rot[:, b] = quat.multiply(rot[:, p], local_r)
-    return BvhMotion(tuple(names), tuple(parents), off, frame_time, pos)
 
 
 def _find(names: tuple[str, ...], options: tuple[str, ...]) -> int | None:

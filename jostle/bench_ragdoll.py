@@ -1,0 +1,375 @@
+"""``jostle bench ragdoll``: articulated characters (issue 9) against pybullet's own DeepMimic humanoid.
+
+In one process, on the world's physics settings (``sim.physics.open_client``, 1/240 s):
+
+1. walking: N articulated characters (``sim.articulated.character.ArticulatedCharacter``, the DeepMimic
+   humanoid skeleton and the walk clip) in one client for ``--seconds``; wall time of control + physics
+   gives ``realtime_factor`` (simulated seconds per wall second, all N together) and the mean joint angle
+   error while walking unpushed (sampled every 1/30 s while in WALK or STAGGER — the balance feedback
+   may stagger it unpushed —, not once fallen) ``tracking_error_deg``;
+2. baseline: N DeepMimic humanoids loaded from pybullet_data's URDF, each tracking the same clip with
+   pybullet's STABLE_PD_CONTROL at the same gains (one ``setJointMotorControlMultiDofArray`` per body per
+   step, no balance, no state machine: they fall after a second or two, as DeepMimic's own PD does
+   without its policy) for the same time; ``cost_ratio_vs_baseline`` = walking wall time / baseline's;
+3. pushes: for the forward and the sideways (to its left) direction and each of ``--phases`` walking
+   phases (spread over one clip cycle after ``--warmup`` s of walking), a 0.2 s push on the pelvis
+   rising from ``--push-start`` by ``--push-step`` N until the character falls within ``--after`` s
+   (state FALL or later). The walk up to the push is simulated once per phase and restored (pybullet
+   saveState + the character's Python state) before each strength. ``max_survived_*_n`` is the
+   *smallest* over the phases of the largest strength survived (0: the first strength felled it);
+4. get-up: every fall of step 3 is followed for ``--getup-window`` s from the moment it started;
+   ``getup_success`` is the fraction that reached WALK again (None when nothing fell);
+5. ``external_assist_n``: the largest external force any character put on its own root (0 if none);
+   the largest assist torque is printed on stderr.
+
+Details (per phase, the baseline's fall time, assist torque) go to stderr; the figures are the keys above.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import copy
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
+        "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")
+DOWN = ("fall", "lie", "stand_up")  # CharacterState values that count as fallen
+PUSH_S = 0.2
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--characters", type=int, default=4, metavar="N", help="walking characters (default 4)")
+    parser.add_argument("--seconds", type=float, default=10.0, metavar="S", help="walking time (default 10)")
+    parser.add_argument("--phases", type=int, default=4, metavar="K", help="walking phases pushed (default 4)")
+    parser.add_argument("--warmup", type=float, default=2.0, metavar="S", help="walking before the first phase")
+    parser.add_argument("--push-start", type=float, default=20.0, metavar="N", help="first push strength")
+    parser.add_argument("--push-step", type=float, default=20.0, metavar="N", help="push strength step (20)")
+    parser.add_argument("--push-max", type=float, default=1000.0, metavar="N", help="strongest push tried")
+    parser.add_argument("--after", type=float, default=3.0, metavar="S", help="watch this long after a push")
+    parser.add_argument("--getup-window", type=float, default=8.0, metavar="S", help="time to stand again")
+    parser.add_argument("--quick", action="store_true",
+                        help="tiny settings for tests: 1 character, 0.5 s, 1 phase, one 600 N push")
+
+
+def _settings(args: argparse.Namespace) -> argparse.Namespace:
+    s = copy.copy(args)
+    if args.quick:
+        s.characters, s.seconds, s.phases, s.warmup = 1, 0.5, 1, 0.3
+        s.push_start = s.push_max = 600.0
+        s.after, s.getup_window = 0.5, 0.5
+    for name in ("characters", "phases"):
+        if getattr(s, name) < 1:
+            raise ValueError(f"--{name}: expected a whole number >= 1, got {getattr(s, name)}")
+    for name in ("seconds", "push_step", "after", "getup_window"):
+        v = getattr(s, name)
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"--{name.replace('_', '-')}: expected a number > 0, got {v}")
+    if not 0 <= s.push_start <= s.push_max or s.warmup < 0:
+        raise ValueError(f"--push-start: expected 0 <= start <= --push-max={s.push_max}, got {s.push_start}")
+    return s
+
+
+def _log(msg: str) -> None:
+    print(f"bench ragdoll: {msg}", file=sys.stderr)
+
+
+@dataclass
+class _Sim:
+    """One pybullet client on the world's physics settings."""
+
+    client: int
+    dt: float
+
+    @classmethod
+    def open(cls) -> _Sim:
+        from sim.config import WorldConfig
+        from sim.physics import open_client
+
+        cfg = WorldConfig()
+        client, _ = open_client(cfg)
+        return cls(client, cfg.physics_dt)
+
+    def close(self) -> None:
+        import pybullet as p
+
+        p.disconnect(physicsClientId=self.client)
+
+
+def _new_character(sim: _Sim, position: tuple[float, float]) -> Any:
+    """An articulated character (helper G1's API) on the DeepMimic skeleton, walking along +x."""
+    from sim.articulated.character import ArticulatedCharacter
+    from sim.articulated.skeleton import deepmimic_humanoid
+    from sim.articulated.spec import ArticulatedSpec
+
+    return ArticulatedCharacter(sim.client, deepmimic_humanoid(), ArticulatedSpec(), None, position, 0.0)
+
+
+def _run(sim: _Sim, chars: list[Any], steps: int, each: Callable[[int], None] | None = None) -> float:
+    """Step control + physics ``steps`` times; returns the wall seconds spent in them (``each`` excluded)."""
+    import pybullet as p
+
+    spent = 0.0
+    for s in range(steps):
+        mark = time.perf_counter()
+        for c in chars:
+            c.step_control(sim.dt)
+        p.stepSimulation(physicsClientId=sim.client)
+        spent += time.perf_counter() - mark
+        if each is not None:
+            each(s)
+    return spent
+
+
+def walking(n: int, seconds: float) -> tuple[float, float, float, float, float]:
+    """(wall s, simulated s, mean tracking error deg, peak assist N, peak assist N·m) for n walkers."""
+    sim = _Sim.open()
+    try:
+        chars = [_new_character(sim, (0.0, 2.0 * i)) for i in range(n)]
+        every = max(1, round(1.0 / 30.0 / sim.dt))
+        errors: list[float] = []
+        states: list[str] = []
+
+        def sample(s: int) -> None:
+            if s % every == 0:
+                states.extend(str(c.state) for c in chars)
+                errors.extend(c.tracking_error_deg() for c in chars if str(c.state) in ("walk", "stagger"))
+
+        steps = round(seconds / sim.dt)
+        wall = _run(sim, chars, steps, sample)
+        down = sum(str(c.state) in DOWN for c in chars)
+        if down:
+            _log(f"walking: {down} of {n} characters fell while walking unpushed")
+        _log("walking: time in each state " + ", ".join(f"{k} {states.count(k) / len(states):.0%}"
+                                                       for k in sorted(set(states))))
+        force = max(float(getattr(c, "external_assist_peak_n", 0.0)) for c in chars)
+        torque = max(float(getattr(c, "external_assist_peak_nm", 0.0)) for c in chars)
+        return wall, steps * sim.dt, float(np.mean(errors)) if errors else math.nan, force, torque
+    finally:
+        sim.close()
+
+
+def baseline(n: int, seconds: float) -> float:
+    """Wall seconds for n DeepMimic humanoids tracking the walk clip with pybullet's stable PD."""
+    import pybullet as p
+
+    from sim.articulated.build import source_to_stage
+    from sim.articulated.skeleton import deepmimic_humanoid, deepmimic_urdf_path
+    from sim.articulated.spec import ArticulatedSpec
+    from sim.motion import quaternion as quat
+    from sim.motion.mocap import JOINTS, REVOLUTE, MotionClip, pybullet_motion_path
+
+    sim = _Sim.open()
+    try:
+        c = sim.client
+        clip = MotionClip.load(pybullet_motion_path(ArticulatedSpec().walk_clip))
+        spec = ArticulatedSpec()
+        up = source_to_stage(deepmimic_humanoid())
+        urdf = str(deepmimic_urdf_path())
+        with _quiet_stderr():  # the URDF has no axes for its spherical joints: pybullet warns per joint
+            bodies = [p.loadURDF(urdf, [0.0, 2.0 * i, 1.0], up.tolist(), globalScaling=0.25,
+                                 flags=p.URDF_MAINTAIN_LINK_ORDER, physicsClientId=c) for i in range(n)]
+        index = {p.getJointInfo(bodies[0], j, physicsClientId=c)[1].decode(): j
+                 for j in range(p.getNumJoints(bodies[0], physicsClientId=c))}
+        joints = [index[name] for name in JOINTS]
+        group = {"chest": "torso", "neck": "neck"}
+        gains = [spec.gains(group.get(name, name.split("_")[-1])) for name in JOINTS]
+        kp, kd = [g[0] for g in gains], [g[1] for g in gains]
+        forces = [[g[2]] if name in REVOLUTE else [g[2]] * 3 for g, name in zip(gains, JOINTS, strict=True)]
+        rest_v = [[0.0] if name in REVOLUTE else [0.0, 0.0, 0.0] for name in JOINTS]
+
+        def targets(t: float) -> tuple[np.ndarray, np.ndarray, list[list[float]]]:
+            pos, rot, rots = clip.sample(t)
+            out = [[2.0 * math.atan2(q[2], q[3])] if name in REVOLUTE else q.tolist()
+                   for q, name in zip(rots, JOINTS, strict=True)]
+            return pos, rot, out
+
+        pos, rot, start = targets(0.0)
+        for i, b in enumerate(bodies):
+            root = quat.rotate(up, pos) + np.array([0.0, 2.0 * i, 0.0])
+            p.resetBasePositionAndOrientation(b, root.tolist(), quat.multiply(up, rot).tolist(), physicsClientId=c)
+            for j, q in zip(joints, start, strict=True):
+                p.resetJointStateMultiDof(b, j, q, physicsClientId=c)
+        steps = round(seconds / sim.dt)
+        fell_at: float | None = None
+        spent = 0.0
+        for s in range(steps):
+            mark = time.perf_counter()
+            _, _, target = targets(s * sim.dt)
+            for b in bodies:
+                p.setJointMotorControlMultiDofArray(b, joints, p.STABLE_PD_CONTROL, targetPositions=target,
+                                                    targetVelocities=rest_v, positionGains=kp, velocityGains=kd,
+                                                    forces=forces, physicsClientId=c)
+            p.stepSimulation(physicsClientId=c)
+            spent += time.perf_counter() - mark
+            if fell_at is None and p.getBasePositionAndOrientation(bodies[0], physicsClientId=c)[0][2] < 0.45:
+                fell_at = s * sim.dt
+        _log("baseline: " + (f"fell after {fell_at:.1f} s (no balance, as expected)" if fell_at is not None
+                             else "stayed up"))
+        return spent
+    finally:
+        sim.close()
+
+
+@contextlib.contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """File descriptors 1 and 2 to /dev/null (pybullet's C-level warnings go to both), restored after."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+            os.dup2(null.fileno(), 2)
+            yield
+    finally:
+        for fd, keep in zip((1, 2), saved, strict=True):
+            os.dup2(keep, fd)
+            os.close(keep)
+
+
+def _direction(char: Any, side: bool) -> np.ndarray:
+    """The character's forward (or, with ``side``, its left) on the floor, from its root orientation."""
+    from sim.motion import quaternion as quat
+
+    _, orn = char.root()
+    fwd = quat.rotate(np.asarray(orn, dtype=float), np.array([1.0, 0.0, 0.0]))
+    fwd[2] = 0.0
+    fwd /= max(float(np.linalg.norm(fwd)), 1e-9)
+    return np.array([-fwd[1], fwd[0], 0.0]) if side else fwd
+
+
+def _walked(s: argparse.Namespace, phase: int) -> tuple[_Sim, Any]:
+    """A fresh character walked for the warm-up plus ``phase``/``phases`` of a clip cycle."""
+    sim = _Sim.open()
+    char = _new_character(sim, (0.0, 0.0))
+    cycle = float(char.walk.duration) if hasattr(char, "walk") else 1.3
+    _run(sim, [char], round((s.warmup + cycle * phase / s.phases) / sim.dt))
+    return sim, char
+
+
+class _Checkpoint:
+    """The walk up to a push, kept to go back to: pybullet's saveState plus a deep copy of the character's
+    Python state; when that cannot be copied, the walk is simulated again from the start instead."""
+
+    def __init__(self, s: argparse.Namespace, phase: int) -> None:
+        import pybullet as p
+
+        self.s, self.phase = s, phase
+        self.sim, self.char = _walked(s, phase)
+        try:
+            self.saved: dict[str, Any] | None = copy.deepcopy(self.char.__dict__)
+            self.state = p.saveState(physicsClientId=self.sim.client)
+        except (TypeError, copy.Error):
+            self.saved = None
+            _log("the character's state cannot be copied: every push walks again from the start")
+
+    def restore(self) -> Any:
+        import pybullet as p
+
+        if self.saved is None:
+            self.sim.close()
+            self.sim, self.char = _walked(self.s, self.phase)
+            return self.char
+        p.restoreState(self.state, physicsClientId=self.sim.client)
+        self.char.__dict__.clear()
+        self.char.__dict__.update(copy.deepcopy(self.saved))
+        return self.char
+
+
+def push_test(s: argparse.Namespace, side: bool) -> tuple[float, list[float], list[bool], tuple[float, float]]:
+    """(smallest over phases of the largest strength survived, per-phase values, get-up outcomes,
+    (peak assist N, peak assist N·m))."""
+    survived: list[float] = []
+    getups: list[bool] = []
+    peak = [0.0, 0.0]
+    for k in range(s.phases):
+        point = _Checkpoint(s, k)
+        try:
+            if str(point.char.state) in DOWN:
+                _log(f"push {'side' if side else 'forward'} phase {k}: fell before the push (counts as 0 N)")
+                survived.append(0.0)
+                continue
+            best, force = 0.0, float(s.push_start)
+            while force <= s.push_max + 1e-9:
+                char = point.restore()
+                char.push("root", tuple(float(v) for v in force * _direction(char, side)), PUSH_S)
+                fell_at = _watch(point.sim, char, s.after)
+                if fell_at is not None:
+                    getups.append(_stands_again(point.sim, char, s.getup_window - (s.after - fell_at)))
+                peak[0] = max(peak[0], float(getattr(char, "external_assist_peak_n", 0.0)))
+                peak[1] = max(peak[1], float(getattr(char, "external_assist_peak_nm", 0.0)))
+                if fell_at is not None:
+                    break
+                best = force
+                force += s.push_step
+            survived.append(best)
+        finally:
+            point.sim.close()
+    return min(survived), survived, getups, (peak[0], peak[1])
+
+
+def _watch(sim: _Sim, char: Any, seconds: float) -> float | None:
+    """Step for ``seconds``; the time (s from now) it went down, or None if it stayed up."""
+    import pybullet as p
+
+    for s in range(round(seconds / sim.dt)):
+        char.step_control(sim.dt)
+        p.stepSimulation(physicsClientId=sim.client)
+        if str(char.state) in DOWN:
+            rest = seconds - (s + 1) * sim.dt
+            _run(sim, [char], max(0, round(rest / sim.dt)))
+            return (s + 1) * sim.dt
+    return None
+
+
+def _stands_again(sim: _Sim, char: Any, seconds: float) -> bool:
+    """Whether it is walking again within ``seconds`` more."""
+    import pybullet as p
+
+    for _ in range(max(0, round(seconds / sim.dt))):
+        if str(char.state) == "walk":
+            return True
+        char.step_control(sim.dt)
+        p.stepSimulation(physicsClientId=sim.client)
+    return str(char.state) == "walk"
+
+
+def run(args: argparse.Namespace) -> dict[str, object]:
+    from jostle.quiet import import_pybullet_quietly
+
+    import_pybullet_quietly()
+    s = _settings(args)
+    from sim.config import WorldConfig
+
+    hz = 1.0 / WorldConfig().physics_dt
+    wall, simulated, error, assist_n, assist_nm = walking(s.characters, s.seconds)
+    base = baseline(s.characters, s.seconds)
+    forward, per_fwd, up_fwd, peak_fwd = push_test(s, side=False)
+    sideways, per_side, up_side, peak_side = push_test(s, side=True)
+    assist_n = max(assist_n, peak_fwd[0], peak_side[0])
+    assist_nm = max(assist_nm, peak_fwd[1], peak_side[1])
+    _log(f"pushes survived per phase (N): forward {per_fwd}, sideways {per_side}; the figures are the minimum")
+    getups = up_fwd + up_side
+    _log(f"falls {len(getups)}, stood again within {s.getup_window:g} s: {sum(getups)}; "
+         f"peak assist torque {assist_nm:.1f} N·m")
+    figures: dict[str, object] = {
+        "characters": s.characters,
+        "physics_hz": round(hz, 3),
+        "realtime_factor": round(simulated / wall, 3) if wall > 0 else None,
+        "cost_ratio_vs_baseline": round(wall / base, 3) if base > 0 else None,
+        "tracking_error_deg": round(error, 2) if math.isfinite(error) else None,
+        "max_survived_forward_n": forward,
+        "max_survived_side_n": sideways,
+        "getup_success": round(sum(getups) / len(getups), 3) if getups else None,
+        "external_assist_n": round(assist_n, 1),
+    }
+    return figures

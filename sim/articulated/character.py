@@ -1,0 +1,408 @@
+"""One articulated character: a multibody tracking a source motion, balancing, taking pushes, getting up.
+
+Call ``step_control(dt)`` before every physics step (pybullet clears joint torques and external forces
+after each ``stepSimulation``). The state machine (``sim.snapshot.CharacterState``):
+
+    WALK ──push / load ≥ stagger_load──▶ STAGGER ──load < recover_load for recover_hold_s──▶ WALK
+    WALK, STAGGER ──pelvis tilt ≥ fall_tilt_deg or root below fall_height──▶ FALL (limp: ragdoll_gain)
+    FALL ──still for still_hold_s──▶ LIE ──lie_duration_s──▶ STAND_UP (getup_faceup / getup_facedown)
+    STAND_UP ──clip done, upright──▶ WALK        STAND_UP ──tilted over or getup_timeout_s──▶ FALL
+
+The walking clip loops; each pass is re-anchored at the character's current position and heading (the
+loop continues from where the character is, no snapping back). Joint targets blend over ``BLEND_S`` from
+the pose the character is in whenever a new clip starts; after a get-up the walk starts at the frame of
+the supporting foot's stance with the feet closest together. Balance: ``sim.articulated.balance``;
+bounded root help: ``sim.articulated.assist``. Targets, balance and states update at ``spec.control_hz``
+(every physics step while limp, so joint limits are watched closely).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+from sim.articulated import assist
+from sim.articulated import balance as bal
+from sim.articulated import quat1 as q1
+from sim.articulated.build import build_multibody, source_to_stage
+from sim.articulated.readout import BodyReadout
+from sim.articulated.reference import MotionReference, ReferencePose
+from sim.articulated.skeleton import ArticulatedSkeleton
+from sim.articulated.spec import ArticulatedSpec
+from sim.articulated.states import Readings, next_state
+from sim.articulated.tracking import JointTracker, PDCommand
+from sim.motion import quaternion as quat
+from sim.motion.mocap import MotionClip, pybullet_motion_path
+from sim.snapshot import CharacterState, LinkPose
+
+BLEND_S = 0.4  # s: joint targets blend from the current pose when a clip starts
+YAW_SHARE = 0.2  # the torso control turns toward the clip's heading by this share of the error
+STOP_GAIN = 4.0  # limp joints beyond their limits are driven back at this many times their gains
+TURN_RATE = 0.6  # rad/s: how fast steering turns the clip's frame (1.0 makes it fall: measured)
+_REACH_M = 1.0  # m: capture-point distance from the clip's place over the stance foot at balance load 1
+_G = 9.81
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@dataclass
+class _Push:
+    link: int  # skeleton link index
+    force: np.ndarray
+    remaining: float
+
+
+class ArticulatedCharacter:
+    """See the module docstring. ``position`` (stage x, y) and ``heading`` (yaw from +x) place it."""
+
+    def __init__(self, client: int, skeleton: ArticulatedSkeleton, spec: ArticulatedSpec,
+                 clip: MotionClip | None = None, position: tuple[float, float] = (0.0, 0.0),
+                 heading: float = 0.0) -> None:
+        self.client = client
+        self.skeleton = skeleton
+        self.spec = spec
+        self._up = source_to_stage(skeleton)
+        self.walk = MotionReference(clip or MotionClip.load(pybullet_motion_path(spec.walk_clip)), skeleton)
+        self._getup_up: MotionReference | None = None
+        self._getup_down: MotionReference | None = None
+        self.ref = self.walk
+        self.driven = self.walk.driven
+        self._feet = (skeleton.foot("right"), skeleton.foot("left")) if any(x.foot for x in skeleton.links) else None
+        self._hips = tuple(skeleton.index(n) for n in ("right_hip", "left_hip"))
+        self._drv_pos = {link: k for k, link in enumerate(self.driven)}
+        r0 = self.walk.sample(0.0)
+        self._anchor_yaw = heading - bal.heading_of(q1.mul(self._up, r0.root_rot))
+        orn = self._stage_root_rot(r0)
+        root = np.array([position[0], position[1], q1.rot(self._up, r0.root_pos)[2]])
+        self.body = build_multibody(client, skeleton, (float(root[0]), float(root[1]), float(root[2])),
+                                    (float(orn[0]), float(orn[1]), float(orn[2]), float(orn[3])))
+        self.tracker = JointTracker(client, self.body, skeleton, spec, self.driven)
+        self.walk.limit(self.tracker.limits.clamp)  # clip frames inside the joint limits, once
+        self.readout = BodyReadout(client, self.body, skeleton)
+        self._set_pose(r0, root, orn)
+        self.state = CharacterState.WALK
+        self.t = 0.0
+        self._clip_t = 0.0
+        self._state_t = 0.0
+        self._hold_t = 0.0
+        self.heading_goal: float | None = None
+        self._blend_from: np.ndarray | None = None
+        self._blend_t = 0.0
+        self._blend_s = BLEND_S
+        self._pushes: list[_Push] = []
+        self._since = 0.0
+        self._walk_started = -1.0  # when it last started walking from a stand (-1: it was placed walking)
+        self._cmd: PDCommand | None = None
+        self._torques: list[tuple[int, list[float]]] = []  # (pybullet link, world torque), re-applied each step
+        self._forces: list[tuple[int, list[float], tuple[float, float, float]]] = []  # (link, force, at)
+        self.load = 0.0
+        self._stance_left = False
+        self._dd = np.zeros(2)
+        self._dv = np.zeros(2)
+        self._heading = heading
+        self.external_assist_peak_n = 0.0
+        self.external_assist_peak_nm = 0.0
+        self.falls = 0
+        self.getups = 0
+        self.last_push_force_n = 0.0
+
+    # ------------------------------------------------------------------ placement
+    def _stage_root_rot(self, r: ReferencePose) -> np.ndarray:
+        out: np.ndarray = q1.mul(bal.yaw_quat(self._anchor_yaw), q1.mul(self._up, r.root_rot))
+        return out
+
+    def _set_pose(self, r: ReferencePose, root: np.ndarray, orn: np.ndarray) -> None:
+        c = self.client
+        p.resetBasePositionAndOrientation(self.body, root.tolist(), orn.tolist(), physicsClientId=c)
+        rots = self.tracker.limits.clamp(r.rots)
+        for k, j in enumerate(self.tracker.indices):
+            if self.tracker.hinge[k]:
+                p.resetJointState(self.body, j, float(self.walk.hinge_angles(rots)[k]),
+                                  float(np.dot(r.omegas[k], self.tracker.axis[k])), physicsClientId=c)
+            else:
+                p.resetJointStateMultiDof(self.body, j, rots[k].tolist(), r.omegas[k].tolist(), physicsClientId=c)
+        lowest = min(p.getAABB(self.body, j, physicsClientId=c)[0][2] for j in range(-1, len(self.skeleton.links) - 1))
+        root = root - np.array([0.0, 0.0, lowest - 0.002])
+        p.resetBasePositionAndOrientation(self.body, root.tolist(), orn.tolist(), physicsClientId=c)
+        fwd = q1.rot(orn, bal.FORWARD)
+        p.resetBaseVelocity(self.body, (fwd * r.v_ref[0]).tolist(), [0.0, 0.0, 0.0], physicsClientId=c)
+
+    # ------------------------------------------------------------------ readouts
+    def root(self) -> tuple[np.ndarray, np.ndarray]:
+        """Root joint position and orientation (stage)."""
+        return self.readout.root()
+
+    def com_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Whole-body centre of mass and its velocity (stage)."""
+        return self.readout.com_state()
+
+    def link_poses(self) -> tuple[LinkPose, ...]:
+        """Every link's frame in the stage (``CharacterSnapshot.links``)."""
+        return self.readout.link_poses()
+
+    def joint_angles(self) -> np.ndarray:
+        """Local rotations (D, 4, x y z w) of the driven joints, in ``self.driven`` order."""
+        return self.tracker.read()[0]
+
+    def tracking_error_deg(self) -> float:
+        """Mean angle (degrees) between the driven joints and the clip's rotations right now."""
+        rots, _ = self.tracker.read()
+        return float(np.degrees(self.tracker.tracking_error(rots, self.ref.sample(self._clip_t).rots).mean()))
+
+    def limit_excess(self) -> float:
+        """Largest amount (radians) by which any joint is outside its limits now (0 inside)."""
+        return float(self.tracker.limits.excess(self.joint_angles()).max())
+
+    # ------------------------------------------------------------------ inputs
+    def push(self, link: int | str, force: tuple[float, float, float], duration: float) -> None:
+        """Push ``link`` (skeleton index or name) with the world-frame ``force`` (N) for ``duration`` s."""
+        i = self.skeleton.index(link) if isinstance(link, str) else int(link)
+        f = np.asarray(force, dtype=float)
+        self._pushes.append(_Push(i, f, float(duration)))
+        if float(np.linalg.norm(f)) * duration >= self.spec.push_threshold_ns:
+            self._enter(CharacterState.STAGGER, only_from=(CharacterState.WALK,))
+
+    def staggered(self) -> None:
+        """Someone pushed it (a contact episode that was a push): WALK → STAGGER."""
+        self._enter(CharacterState.STAGGER, only_from=(CharacterState.WALK,))
+
+    def nearest_link(self, at: tuple[float, float, float]) -> int:
+        """The link whose centre of mass is nearest the stage point ``at``."""
+        return self.readout.nearest_link(at)
+
+    # ------------------------------------------------------------------ control
+    def _enter(self, state: CharacterState, only_from: tuple[CharacterState, ...] | None = None) -> None:
+        if only_from is not None and self.state not in only_from:
+            return
+        if state == self.state:
+            return
+        self.state = state
+        self._state_t = 0.0
+        self._hold_t = 0.0
+        if state == CharacterState.FALL:
+            self.falls += 1
+        if state == CharacterState.STAND_UP:
+            _, orn = self.root()
+            up = bal.face_up(orn)
+            self.ref = self._getup(up)
+            r0 = self.ref.sample(0.0)
+            self._anchor_yaw = (bal.lying_heading_of(orn)
+                                - bal.lying_heading_of(q1.mul(self._up, r0.root_rot)))
+            self._start_clip()
+        if state == CharacterState.WALK and self.ref is not self.walk:
+            self.getups += 1
+            self.ref = self.walk
+            self._reanchor_walk()
+            on_left = self._support_left()
+            self._start_clip(BLEND_S, self.walk.feet_together_t[1 if on_left else 0])
+            self._walk_started = self.t
+
+    def _getup(self, face_up: bool) -> MotionReference:
+        if face_up:
+            if self._getup_up is None:
+                self._getup_up = MotionReference(
+                    MotionClip.load(pybullet_motion_path(self.spec.getup_faceup_clip)), self.skeleton
+                ).limit(self.tracker.limits.clamp)
+            return self._getup_up
+        if self._getup_down is None:
+            self._getup_down = MotionReference(
+                MotionClip.load(pybullet_motion_path(self.spec.getup_facedown_clip)), self.skeleton
+            ).limit(self.tracker.limits.clamp)
+        return self._getup_down
+
+    def steer(self, heading: float | None) -> None:
+        """Walk toward the stage yaw ``heading`` (turning at most ``TURN_RATE``); None: follow the clip."""
+        self.heading_goal = None if heading is None else float(heading)
+
+    def _reanchor_walk(self) -> None:
+        _, orn = self.root()
+        self._anchor_yaw = bal.heading_of(orn) - bal.heading_of(q1.mul(self._up, self.walk.sample(0.0).root_rot))
+
+    def _start_clip(self, blend_s: float = BLEND_S, at: float = 0.0) -> None:
+        """Play ``self.ref`` from ``at``, blending from the current pose over ``blend_s``."""
+        self._clip_t = at
+        self._blend_from, _ = self.tracker.read()
+        self._blend_t = 0.0
+        self._blend_s = blend_s
+
+    def step_control(self, dt: float) -> None:
+        """Apply this physics step's joint drive, balance torques, assist and pushes.
+
+        The targets, balance feedback and state machine update at ``spec.control_hz``; in between the
+        last command is re-issued (pybullet clears joint torques and external forces after each step).
+        """
+        self.t += dt
+        self._state_t += dt
+        self._clip_t += dt
+        self._since += dt
+        limp = self.state in (CharacterState.FALL, CharacterState.LIE)  # limits are watched every step
+        if self._cmd is None or limp or self._since >= 1.0 / self.spec.control_hz - 1e-9:
+            self._update(self._since)
+            self._since = 0.0
+        assert self._cmd is not None
+        self.tracker.issue(self._cmd)
+        c = self.client
+        for link, torque in self._torques:
+            p.applyExternalTorque(self.body, link, torque, p.WORLD_FRAME, physicsClientId=c)
+        for link, force, at in self._forces:
+            p.applyExternalForce(self.body, link, force, at, p.WORLD_FRAME, physicsClientId=c)
+        self._apply_pushes(dt)
+
+    def _update(self, dt: float) -> None:
+        if self.ref.clip.loop and self._clip_t >= self.ref.duration:
+            self._clip_t -= self.ref.duration
+            self._reanchor_walk()
+        root, orn = self.root()
+        if self.heading_goal is not None and self.ref is self.walk:  # steer: turn the clip's frame
+            turn = _wrap(self.heading_goal - bal.heading_of(orn))
+            self._anchor_yaw += float(np.clip(turn, -TURN_RATE * dt, TURN_RATE * dt))
+        r = self.ref.sample(self._clip_t)
+        _, omega_a = self.readout.base_velocity()
+        targets = r.rots.copy()
+        scale = np.ones(len(self.driven))
+        self._modified: list[int] = []
+        self._torques = []
+        self._forces = []
+        walking = self.state in (CharacterState.WALK, CharacterState.STAGGER)
+        desired_root = self._stage_root_rot(r)
+        if walking:  # balance the tilt; turn toward the clip's heading only gently (YAW_SHARE)
+            yaw_err = _wrap(bal.heading_of(orn) - bal.heading_of(desired_root))
+            desired_root = q1.mul(bal.yaw_quat((1.0 - YAW_SHARE) * yaw_err), desired_root)
+        if walking and self._feet is not None:
+            targets, torso = self._balance(r, root, orn, omega_a, desired_root, scale)
+            stance = self._hips[1] if self._stance_left else self._hips[0]
+            self._torques += [(-1, torso.tolist()), (stance - 1, (-torso).tolist())]
+        if self._blend_from is not None and self._blend_t < self._blend_s:
+            self._blend_t += dt
+            targets = quat.slerp(self._blend_from, targets, min(1.0, self._blend_t / self._blend_s))
+            targets = self.tracker.limits.clamp(targets)
+        else:  # only what balance changed needs clamping (the clip's own frames are inside the limits)
+            for k in self._modified:
+                targets[k] = self.tracker.limits.clamp_one(targets[k], k)
+        omegas = r.omegas
+        if self.state in (CharacterState.FALL, CharacterState.LIE):
+            scale *= self.spec.ragdoll_gain
+            # limp, but a joint beyond its limits (thrown there by the fall) meets a stop: driven back to
+            # the nearest pose inside at STOP_GAIN × its gains and torque limit (bone and ligament, not muscle)
+            now, _ = self.tracker.read()
+            out = self.tracker.limits.excess(now) > 0.0
+            if out.any():
+                targets = np.where(out[:, None], self.tracker.limits.clamp(now), targets)
+                omegas = np.where(out[:, None], 0.0, omegas)
+                scale = np.where(out, STOP_GAIN, scale)
+        self._cmd = self.tracker.command(targets, omegas, scale)
+        self._assist(r, root, orn, omega_a, desired_root)
+        self._update_state(root, orn, dt)
+
+    def _foot_contacts(self) -> tuple[bool, bool]:
+        """(right foot touches something, left foot touches something)."""
+        assert self._feet is not None
+        return self.readout.touches(self._feet[0]), self.readout.touches(self._feet[1])
+
+    def _support_left(self) -> bool:
+        """Which foot carries the body: the one touching the ground, else the one nearer below the com."""
+        if self._feet is None:
+            return False
+        right, left = self._foot_contacts()
+        if right != left:
+            return left
+        com, _ = self.com_state()
+        coms = self.readout.link_coms()
+        d = [float(np.linalg.norm((coms[f] - com)[:2])) for f in self._feet]
+        return bool(d[1] < d[0])
+
+    def _balance(self, r: ReferencePose, root: np.ndarray, orn: np.ndarray, omega: np.ndarray,
+                 desired_root: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        s = self.spec
+        assert self._feet is not None
+        right_on, left_on = self._foot_contacts()
+        stance_left = left_on if right_on != left_on else r.stance_left  # the ground decides when it can
+        self._stance_left = stance_left
+        stance_foot = self._feet[1] if stance_left else self._feet[0]
+        swing_hip, stance_hip = (self._hips[0], self._hips[1]) if stance_left else (self._hips[1], self._hips[0])
+        ankle = self.readout.joint_position(stance_foot)
+        vel, _ = self.readout.base_velocity()
+        heading = bal.heading_of(desired_root)
+        d_fwd, d_right = bal.heading_frame(heading, root - ankle)
+        v_fwd, v_right = bal.heading_frame(heading, np.array(vel))
+        dd = np.array([d_fwd, d_right]) - r.d_ref
+        dv = np.array([v_fwd, v_right]) - r.v_ref
+        h = max(float(root[2] - ankle[2]), 0.3)
+        self.load = float(np.linalg.norm(dd + dv * math.sqrt(h / _G))) / _REACH_M
+        self._dd, self._dv, self._heading = dd, dv, heading
+        targets = r.rots.copy()
+        k_sw = self._drv_pos[swing_hip]
+        place = bal.placement_rotation(dd[0], dd[1], dv[0], dv[1], s.cd_sagittal, s.cv_sagittal,
+                                       s.cd_coronal, s.cv_coronal)
+        # swing thigh in the world: through the desired pelvis frame, whatever the actual pelvis does
+        world = q1.mul(desired_root, q1.mul(place, r.rots[k_sw]))
+        targets[k_sw] = q1.mul(q1.conj(orn), world)
+        self._modified.append(k_sw)
+        k_st = self._drv_pos[stance_hip]
+        scale[k_st] = s.stance_hip_gain
+        k_an = self._drv_pos[stance_foot]
+        if s.ankle_gain > 0:
+            targets[k_an] = q1.mul(bal.ankle_rotation(dd[0], dd[1], s.ankle_gain), r.rots[k_an])
+            self._modified.append(k_an)
+        torso = bal.orientation_torque(desired_root, orn, omega, s.torso_kp, s.torso_kd)
+        return targets, bal.clamp_norm(torso, s.gains("hip")[2])
+
+    def _assist(self, r: ReferencePose, root: np.ndarray, orn: np.ndarray, omega: np.ndarray,
+                desired_root: np.ndarray) -> None:
+        s = self.spec
+        at = self.readout.base_com()
+        torque: np.ndarray | None = None
+        force: np.ndarray | None = None
+        if self.state in (CharacterState.WALK, CharacterState.STAGGER):
+            # walking off from a stand (after getting up) is helped harder for walk_in_s
+            walk_in = self._walk_started >= 0.0 and self.t - self._walk_started < s.walk_in_s
+            boost = s.walk_in_assist if walk_in else 1.0
+            if s.assist_torque_max_nm > 0:
+                torque = assist.orientation_help(desired_root, orn, omega, assist.ASSIST_KP,
+                                                 s.assist_torque_max_nm * boost)
+            if self._feet is not None and walk_in and s.walk_in_force_n > 0:  # up to the clip's speed
+                force = assist.speed_help(self._dv, self._heading, s.walk_in_force_n)
+            elif s.assist_force_max_n > 0 and self._feet is not None:
+                force = assist.placement_help(self._dd, self._dv, self._heading, s.assist_force_max_n)
+        elif self.state == CharacterState.STAND_UP:
+            if s.getup_assist_torque_max_nm > 0:
+                torque = assist.orientation_help(desired_root, orn, omega, assist.GETUP_KP,
+                                                 s.getup_assist_torque_max_nm)
+            if s.getup_assist_force_max_n > 0:
+                vel, _ = self.readout.base_velocity()
+                z_des = float(q1.rot(self._up, r.root_pos)[2])
+                lift = assist.lift_help(z_des, float(root[2]), float(vel[2]), s.getup_assist_force_max_n)
+                force = np.array([0.0, 0.0, lift])
+        if torque is not None:
+            self._torques.append((-1, torque.tolist()))
+            self.external_assist_peak_nm = max(self.external_assist_peak_nm, float(np.linalg.norm(torque)))
+        if force is not None:
+            self._forces.append((-1, force.tolist(), at))
+            self.external_assist_peak_n = max(self.external_assist_peak_n, float(np.linalg.norm(force)))
+
+    def _apply_pushes(self, dt: float) -> None:
+        if not self._pushes:
+            self.last_push_force_n = 0.0
+            return
+        c = self.client
+        self.last_push_force_n = 0.0
+        for push in self._pushes:
+            j = push.link - 1
+            pos = self.readout.base_com() if j < 0 else p.getLinkState(self.body, j, physicsClientId=c)[0]
+            p.applyExternalForce(self.body, j, push.force.tolist(), pos, p.WORLD_FRAME, physicsClientId=c)
+            push.remaining -= dt
+            self.last_push_force_n = max(self.last_push_force_n, float(np.linalg.norm(push.force)))
+        self._pushes = [x for x in self._pushes if x.remaining > 1e-9]
+
+    def _update_state(self, root: np.ndarray, orn: np.ndarray, dt: float) -> None:
+        vel, _ = self.readout.base_velocity()
+        readings = Readings(math.degrees(bal.tilt_of(orn)), float(root[2]), self.load, bool(self._pushes),
+                            float(np.linalg.norm(vel)), self._state_t, self._clip_t, self.ref.duration)
+        after, self._hold_t = next_state(self.state, readings, self.spec, self._hold_t, dt)
+        if after != self.state:
+            self._enter(after)

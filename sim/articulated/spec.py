@@ -1,0 +1,137 @@
+"""Configuration of one articulated character kind (TOML: ``configs/characters/ragdoll.toml``).
+
+Gains are the seed's (Lu, table 3.2) in "ODE units", i.e. N·m/rad and N·m·s/rad for its 70 kg body. In
+pybullet the units are the same (SI), but this body is lighter (the DeepMimic humanoid: 45 kg), so every
+gain is multiplied by ``gain_scale`` (default 45/70: torques scale with mass at equal accelerations). The
+seed integrated ODE at a small step; with pybullet's 1/240 s step an *explicit* PD at these gains is
+unstable on the light distal links, which is what pybullet's stable PD (``pd = "stable"``) fixes — see
+``sim/articulated/tracking.py`` and the measurements in the report.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Literal
+
+GROUPS = ("hip", "knee", "ankle", "torso", "neck", "shoulder", "elbow")
+
+
+def _positive(obj: object, *names: str) -> None:
+    for name in names:
+        v = getattr(obj, name)
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
+            raise ValueError(f"{name}: expected a number > 0, got {v!r}")
+
+
+def _non_negative(obj: object, *names: str) -> None:
+    for name in names:
+        v = getattr(obj, name)
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
+            raise ValueError(f"{name}: expected a number >= 0, got {v!r}")
+
+
+@dataclass(frozen=True)
+class ArticulatedSpec:
+    """An articulated character kind: skeleton, source motions, PD gains, balance feedback, state thresholds."""
+
+    name: str = "ragdoll"
+    body: Literal["articulated"] = "articulated"
+    skeleton: Literal["deepmimic_humanoid"] = "deepmimic_humanoid"
+    height: float = 1.65  # m, for drawing / snapshots
+    com_height: float = 0.93  # m, centre of mass when standing (drawing: where the figure's com sits)
+    walk_clip: str = "walk"  # pybullet_data clips (sim.motion.mocap.pybullet_motion_path)
+    getup_faceup_clip: str = "getup_faceup"
+    getup_facedown_clip: str = "getup_facedown"
+    # tracking
+    pd: Literal["stable", "explicit"] = "stable"
+    control_hz: float = 60.0  # targets, balance feedback and states update this often (physics: every step)
+    gain_scale: float = 45.0 / 70.0
+    kp_hip: float = 4000.0
+    kd_hip: float = 300.0
+    kp_knee: float = 6000.0
+    kd_knee: float = 450.0
+    kp_ankle: float = 600.0
+    kd_ankle: float = 45.0
+    kp_torso: float = 4000.0
+    kd_torso: float = 300.0
+    kp_neck: float = 1000.0
+    kd_neck: float = 75.0
+    kp_shoulder: float = 600.0
+    kd_shoulder: float = 45.0
+    kp_elbow: float = 100.0
+    kd_elbow: float = 15.0
+    # torque limits per joint group, N·m (DeepMimic's humanoid maxima)
+    max_torque_hip: float = 200.0
+    max_torque_knee: float = 150.0
+    max_torque_ankle: float = 90.0
+    max_torque_torso: float = 200.0
+    max_torque_neck: float = 50.0
+    max_torque_shoulder: float = 100.0
+    max_torque_elbow: float = 60.0
+    # balance (SIMBICON): swing hip target += cd·d + cv·v (rad per m, rad per m/s), sagittal and coronal
+    cd_sagittal: float = 0.0
+    cv_sagittal: float = 0.2
+    cd_coronal: float = 0.15
+    cv_coronal: float = 0.5
+    torso_kp: float = 200.0  # N·m/rad: the stance hip keeps the pelvis at its world orientation
+    torso_kd: float = 0.0
+    stance_hip_gain: float = 1.0  # the stance hip's own PD is scaled by this (the torso torque does the rest)
+    ankle_gain: float = 0.0  # rad per m of COM offset: stance ankle strategy
+    # bounded external help on the root (0 = none); switched off while falling and lying
+    assist_torque_max_nm: float = 150.0  # walking: torque on the pelvis toward upright
+    assist_force_max_n: float = 0.0  # walking: horizontal force on the pelvis toward the clip's place
+    walk_in_s: float = 1.5  # after getting up, walking off from a stand for this long: the torque assist
+    walk_in_assist: float = 3.0  # is this many times larger, and a horizontal force of at most
+    walk_in_force_n: float = 0.0  # this brings the root up to the clip's speed (0: off; it makes a walk
+    # from a still pose work, but after a get-up it makes things worse — measured)
+    getup_assist_force_max_n: float = 300.0  # standing up: vertical force toward the clip's root height
+    getup_assist_torque_max_nm: float = 300.0  # standing up: torque toward the clip's root orientation
+    # states
+    push_threshold_ns: float = 10.0  # an impulse this large (N·s) makes it STAGGER
+    stagger_load: float = 0.8  # balance load (capture point / support reach) above which it staggers
+    recover_load: float = 0.5
+    recover_hold_s: float = 0.6
+    fall_tilt_deg: float = 50.0  # pelvis this tilted from upright: falling
+    fall_height: float = 0.45  # m: root joint this low: falling
+    ragdoll_gain: float = 0.05  # falling and lying: PD gains scaled by this (a limp body)
+    still_speed: float = 0.15  # m/s
+    still_hold_s: float = 0.2
+    lie_duration_s: float = 0.5
+    getup_timeout_s: float = 8.0
+    upright_tilt_deg: float = 20.0  # standing up is done when the pelvis is this upright and high
+    upright_height: float = 0.72  # m, root joint
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ValueError(f"name: expected a non-empty string, got {self.name!r}")
+        if self.body != "articulated":
+            raise ValueError(f"body: expected \"articulated\", got {self.body!r}")
+        if self.skeleton != "deepmimic_humanoid":
+            raise ValueError(f"skeleton: expected \"deepmimic_humanoid\", got {self.skeleton!r}")
+        if self.pd not in ("stable", "explicit"):
+            raise ValueError(f"pd: expected \"stable\" or \"explicit\", got {self.pd!r}")
+        for f in ("walk_clip", "getup_faceup_clip", "getup_facedown_clip"):
+            if not isinstance(getattr(self, f), str) or not getattr(self, f):
+                raise ValueError(f"{f}: expected a clip name, got {getattr(self, f)!r}")
+        gains = [f.name for f in fields(self) if f.name.startswith(("kp_", "kd_", "max_torque_"))]
+        _positive(self, "height", "com_height", "control_hz", "gain_scale", *gains, "push_threshold_ns",
+                  "stagger_load", "recover_load", "fall_tilt_deg", "fall_height", "ragdoll_gain", "still_speed",
+                  "lie_duration_s", "getup_timeout_s", "upright_tilt_deg", "upright_height")
+        _non_negative(self, "cd_sagittal", "cv_sagittal", "cd_coronal", "cv_coronal", "torso_kp", "torso_kd",
+                      "stance_hip_gain", "ankle_gain", "assist_torque_max_nm", "assist_force_max_n",
+                      "getup_assist_force_max_n", "getup_assist_torque_max_nm", "walk_in_s", "walk_in_assist",
+                      "walk_in_force_n", "recover_hold_s", "still_hold_s")
+        if not self.recover_load < self.stagger_load:
+            raise ValueError(f"recover_load: expected < stagger_load={self.stagger_load}, got {self.recover_load}")
+        if not 0 < self.fall_tilt_deg < 90 or not self.upright_tilt_deg < self.fall_tilt_deg:
+            raise ValueError(f"fall_tilt_deg: expected between upright_tilt_deg={self.upright_tilt_deg} and 90, "
+                             f"got {self.fall_tilt_deg}")
+
+    def gains(self, group: str) -> tuple[float, float, float]:
+        """(kp, kd, max torque) of a joint group in pybullet units for this body (gain_scale applied)."""
+        if group not in GROUPS:
+            raise KeyError(f"no gain group {group!r}; groups: {', '.join(GROUPS)}")
+        s = self.gain_scale
+        return (s * getattr(self, f"kp_{group}"), s * getattr(self, f"kd_{group}"),
+                getattr(self, f"max_torque_{group}"))

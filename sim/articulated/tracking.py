@@ -1,0 +1,203 @@
+"""PD tracking of desired joint rotations: explicit PD and pybullet's stable PD, plus joint limits.
+
+Explicit PD (seed eq. 3.1), per joint in the child link's frame:
+    τ = Kp·log(q⁻¹ q_d) + Kd·(ω_d − ω), clamped to the joint's torque limit,
+applied with ``TORQUE_CONTROL``. Stable PD (Tan et al. 2011) evaluates the same law at the *next* step's
+state, implicitly, through pybullet's ``STABLE_PD_CONTROL`` in ``setJointMotorControlMultiDofArray``; it
+stays stable at gains where the explicit law explodes at 1/240 s. Both are issued every physics step
+(pybullet clears applied joint torques after each ``stepSimulation``).
+
+Limits: desired rotations are clamped into the joint's limits before they are tracked (hinges: the range;
+ball/universal: swing cone and twist range about the bone, see ``sim.articulated.skeleton``). pybullet
+enforces the hinge ranges itself (``changeDynamics`` joint limits); ``limit_excess`` measures by how much
+a pose is outside the limits (0 inside).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+from sim.articulated import quat1 as q1
+from sim.articulated.reference import quat_exp, quat_log
+from sim.articulated.skeleton import ArticulatedSkeleton
+from sim.articulated.spec import ArticulatedSpec
+from sim.motion import quaternion as quat
+
+
+@dataclass(frozen=True, eq=False)
+class PDCommand:
+    """Targets and gains of one control update, kept to be re-issued every physics step until the next."""
+
+    rots: np.ndarray
+    omegas: np.ndarray
+    kp: np.ndarray
+    kd: np.ndarray
+    fmax: np.ndarray
+    positions: list[list[float]]
+    velocities: list[list[float]]
+    forces: list[list[float]]
+    kp_list: list[float]
+    kd_list: list[float]
+
+
+class JointLimits:
+    """Limits of the driven joints (in ``driven`` order), vectorised."""
+
+    def __init__(self, skeleton: ArticulatedSkeleton, driven: tuple[int, ...]) -> None:
+        links = [skeleton.links[i] for i in driven]
+        self.hinge = np.array([link.kind == "hinge" for link in links])
+        self.axis = np.array([link.axis for link in links], dtype=float)
+        self.lower = np.array([link.lower if link.kind == "hinge" else 0.0 for link in links])
+        self.upper = np.array([link.upper if link.kind == "hinge" else 0.0 for link in links])
+        self.twist_axis = np.array([link.twist_axis for link in links], dtype=float)
+        self.swing_limit = np.array([link.swing_limit for link in links])
+        self.twist_limit = np.array([link.twist_limit for link in links])
+
+    def _split(self, rots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(swing rotation vectors (D, 3), twist angles (D,)) of local rotations about each twist axis."""
+        q = np.where(rots[:, 3:4] < 0, -rots, rots)
+        a = self.twist_axis
+        proj = np.sum(q[:, :3] * a, axis=-1)
+        twist_angle = 2.0 * np.arctan2(proj, q[:, 3])
+        twist = quat_exp(a * twist_angle[:, None])
+        swing = quat.multiply(q, quat.conjugate(twist))
+        return quat_log(swing), twist_angle
+
+    def clamp_one(self, q: np.ndarray, k: int) -> np.ndarray:
+        """``clamp`` for joint ``k`` alone, in float arithmetic (the per-update hot path)."""
+        x, y, z, w = (float(v) for v in q)
+        if w < 0.0:
+            x, y, z, w = -x, -y, -z, -w
+        if self.hinge[k]:
+            ax, ay, az = (float(v) for v in self.axis[k])
+            s = math.sqrt(x * x + y * y + z * z)
+            angle = 2.0 * math.atan2(s, w) * ((x * ax + y * ay + z * az) / s if s > 1e-12 else 0.0)
+            angle = min(max(angle, float(self.lower[k])), float(self.upper[k]))
+            h = 0.5 * angle
+            return np.array([ax * math.sin(h), ay * math.sin(h), az * math.sin(h), math.cos(h)])
+        ax, ay, az = (float(v) for v in self.twist_axis[k])
+        proj = x * ax + y * ay + z * az
+        twist = 2.0 * math.atan2(proj, w)
+        th = 0.5 * twist
+        tx, ty, tz, tw = ax * math.sin(th), ay * math.sin(th), az * math.sin(th), math.cos(th)
+        sw = q1.mul(np.array([x, y, z, w]), np.array([-tx, -ty, -tz, tw]))  # swing = q · twist⁻¹
+        if sw[3] < 0:
+            sw = -sw
+        sn = math.sqrt(float(sw[0] ** 2 + sw[1] ** 2 + sw[2] ** 2))
+        swing = 2.0 * math.atan2(sn, float(sw[3]))
+        limit = float(self.swing_limit[k])
+        if swing > limit and sn > 1e-12:
+            h = 0.5 * limit
+            sw = np.array([sw[0] / sn * math.sin(h), sw[1] / sn * math.sin(h), sw[2] / sn * math.sin(h), math.cos(h)])
+        tl = float(self.twist_limit[k])
+        th = 0.5 * min(max(twist, -tl), tl)
+        return q1.mul(sw, np.array([ax * math.sin(th), ay * math.sin(th), az * math.sin(th), math.cos(th)]))
+
+    def clamp(self, rots: np.ndarray) -> np.ndarray:
+        """The nearest rotations (D, 4) inside the limits (swing and twist clamped separately)."""
+        swing, twist_angle = self._split(rots)
+        n = np.linalg.norm(swing, axis=-1)
+        swing = swing * np.minimum(1.0, self.swing_limit / np.maximum(n, 1e-12))[:, None]
+        twist_angle = np.clip(twist_angle, -self.twist_limit, self.twist_limit)
+        ball = quat.multiply(quat_exp(swing), quat_exp(self.twist_axis * twist_angle[:, None]))
+        angle = np.clip(np.sum(quat_log(rots) * self.axis, axis=-1), self.lower, self.upper)
+        hinge = quat_exp(self.axis * angle[:, None])
+        out: np.ndarray = np.where(self.hinge[:, None], hinge, ball)
+        return out
+
+    def excess(self, rots: np.ndarray) -> np.ndarray:
+        """Radians by which each joint (D,) is outside its limits (0 inside)."""
+        swing, twist_angle = self._split(rots)
+        ball = np.maximum(np.linalg.norm(swing, axis=-1) - self.swing_limit, 0.0)
+        ball = np.maximum(ball, np.abs(twist_angle) - self.twist_limit)
+        angle = np.sum(quat_log(rots) * self.axis, axis=-1)
+        hinge = np.maximum(np.maximum(self.lower - angle, angle - self.upper), 0.0)
+        out: np.ndarray = np.maximum(np.where(self.hinge, hinge, ball), 0.0)
+        return out
+
+
+class JointTracker:
+    """Reads and drives the driven joints of one multibody (skeleton link i = pybullet link i − 1)."""
+
+    def __init__(self, client: int, body: int, skeleton: ArticulatedSkeleton, spec: ArticulatedSpec,
+                 driven: tuple[int, ...]) -> None:
+        self._client = client
+        self._body = body
+        self.driven = driven
+        self.indices = [i - 1 for i in driven]
+        self.limits = JointLimits(skeleton, driven)
+        gains = [spec.gains(skeleton.links[i].gain_group) for i in driven]
+        self.kp = np.array([g[0] for g in gains])
+        self.kd = np.array([g[1] for g in gains])
+        self.max_torque = np.array([g[2] for g in gains])
+        self.hinge = self.limits.hinge
+        self.axis = self.limits.axis
+        self.mode = spec.pd
+
+    def read(self) -> tuple[np.ndarray, np.ndarray]:
+        """Local rotations (D, 4) and angular velocities (D, 3, child frame) of the driven joints."""
+        states = p.getJointStatesMultiDof(self._body, self.indices, physicsClientId=self._client)
+        rots = np.empty((len(self.indices), 4))
+        omegas = np.empty((len(self.indices), 3))
+        for k, (pos, vel, _, _) in enumerate(states):
+            if self.hinge[k]:
+                rots[k] = quat_exp(self.axis[k] * pos[0])
+                omegas[k] = self.axis[k] * vel[0]
+            else:
+                rots[k] = pos
+                omegas[k] = vel
+        return rots, omegas
+
+    def command(self, target_rots: np.ndarray, target_omegas: np.ndarray, scale: np.ndarray) -> PDCommand:
+        """The drive toward the targets with gains and torque limits × ``scale`` (D,) (0: limp); ``issue`` it
+        every physics step until the next command."""
+        kp = self.kp * scale
+        kd = self.kd * scale
+        fmax = self.max_torque * np.maximum(scale, 0.0)
+        positions: list[list[float]] = []
+        velocities: list[list[float]] = []
+        forces: list[list[float]] = []
+        hinge_angles = np.sum(quat_log(target_rots) * self.axis, axis=-1)
+        for k in range(len(self.indices)):
+            f = float(fmax[k])
+            if self.hinge[k]:
+                positions.append([float(hinge_angles[k])])
+                velocities.append([float(np.dot(target_omegas[k], self.axis[k]))])
+                forces.append([f])
+            else:
+                positions.append([float(v) for v in target_rots[k]])
+                velocities.append([float(v) for v in target_omegas[k]])
+                forces.append([f, f, f])
+        return PDCommand(target_rots, target_omegas, kp, kd, fmax, positions, velocities, forces,
+                         [float(v) for v in kp], [float(v) for v in kd])
+
+    def issue(self, cmd: PDCommand) -> None:
+        """Apply ``cmd`` for this physics step (stable PD, or explicit PD from the current joint state)."""
+        if self.mode == "stable":
+            p.setJointMotorControlMultiDofArray(
+                self._body, self.indices, p.STABLE_PD_CONTROL, targetPositions=cmd.positions,
+                targetVelocities=cmd.velocities, forces=cmd.forces, positionGains=cmd.kp_list,
+                velocityGains=cmd.kd_list, physicsClientId=self._client)
+            return
+        rots, omegas = self.read()
+        err = quat_log(quat.multiply(quat.conjugate(rots), cmd.rots))
+        tau = cmd.kp[:, None] * err + cmd.kd[:, None] * (cmd.omegas - omegas)
+        norm = np.linalg.norm(tau, axis=-1)
+        tau *= np.minimum(1.0, cmd.fmax / np.maximum(norm, 1e-12))[:, None]
+        self.apply_torques(tau)
+
+    def apply_torques(self, tau: np.ndarray) -> None:
+        """Joint torques (D, 3) in each child frame (hinges: the component along the axis)."""
+        forces = [[float(np.dot(tau[k], self.axis[k]))] if self.hinge[k] else [float(v) for v in tau[k]]
+                  for k in range(len(self.indices))]
+        p.setJointMotorControlMultiDofArray(self._body, self.indices, p.TORQUE_CONTROL, forces=forces,
+                                            physicsClientId=self._client)
+
+    def tracking_error(self, rots: np.ndarray, target_rots: np.ndarray) -> np.ndarray:
+        """Angle (radians, D) between each joint's rotation and its target."""
+        out: np.ndarray = np.linalg.norm(quat_log(quat.multiply(quat.conjugate(rots), target_rots)), axis=-1)
+        return out

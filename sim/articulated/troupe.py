@@ -1,0 +1,142 @@
+"""The articulated characters of one ``World``: added, stepped every physics step, pushed, snapshotted.
+
+``World`` owns one ``ArticulatedCharacters`` and calls it at four points: ``add`` (from
+``World.add_character`` when the spec is an ``ArticulatedSpec``), ``before_physics_step`` (before every
+``stepSimulation``), ``after_tick`` (after a control tick's substeps: state changes, travelled distances)
+and ``snapshots``. People's contactors hit the links physically (the contactor pool's bodies collide with
+every character link); their contact forces come back through ``bodies`` (body id → name) like the
+Mitake characters', and a contact episode that is a push makes the character stagger.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as p
+
+from sim.articulated import balance as bal
+from sim.articulated.character import ArticulatedCharacter
+from sim.articulated.skeleton import ArticulatedSkeleton, deepmimic_humanoid
+from sim.articulated.spec import ArticulatedSpec
+from sim.snapshot import CharacterSnapshot, CharacterState, ContactEvent, StateChange
+
+_DOWN = (CharacterState.FALL, CharacterState.LIE, CharacterState.BRAKE)
+
+
+EDGE_M = 0.6  # nearer than this to the stage's edge, walking outward: it turns back toward the centre
+
+
+class ArticulatedCharacters:
+    def __init__(self, client: int, stage: tuple[float, float, float, float] = (-3.0, 3.0, -1.0, 1.0)) -> None:
+        """``stage``: (x_min, x_max, y_min, y_max), the floor rectangle they keep to (by turning)."""
+        self._client = client
+        self._stage = stage
+        self._skeletons: dict[str, ArticulatedSkeleton] = {}
+        self.characters: dict[str, ArticulatedCharacter] = {}
+        self.bodies: dict[int, str] = {}  # pybullet body id → name (for the contactor pool's forces)
+        self._states: dict[str, CharacterState] = {}
+        self._travel: dict[str, list[float]] = {}  # d_front, d_side
+        self._force: dict[str, float] = {}
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.characters
+
+    def __len__(self) -> int:
+        return len(self.characters)
+
+    def add(self, name: str, spec: ArticulatedSpec, position: tuple[float, float], heading: float) -> str:
+        if spec.skeleton not in self._skeletons:
+            self._skeletons[spec.skeleton] = deepmimic_humanoid()
+        ch = ArticulatedCharacter(self._client, self._skeletons[spec.skeleton], spec, None, position, heading)
+        self.characters[name] = ch
+        self.bodies[ch.body] = name
+        self._states[name] = ch.state
+        self._travel[name] = [0.0, 0.0]
+        self._force[name] = 0.0
+        return name
+
+    def strike(self, name: str, force: tuple[float, float, float], duration: float,
+               at: tuple[float, float, float]) -> None:
+        """Push the link nearest ``at`` — body frame from the centre of mass (x forward, y left, z up)."""
+        ch = self.characters[name]
+        com, _ = ch.com_state()
+        _, orn = ch.root()
+        h = bal.heading_of(orn)
+        c, s = math.cos(h), math.sin(h)
+        point = (float(com[0] + c * at[0] - s * at[1]), float(com[1] + s * at[0] + c * at[1]), float(com[2] + at[2]))
+        ch.push(ch.nearest_link(point), force, duration)
+
+    def before_physics_step(self, dt: float) -> None:
+        for name, ch in self.characters.items():
+            ch.step_control(dt)
+            self._force[name] = max(self._force[name], ch.last_push_force_n)
+
+    def contact_force(self, name: str, force: float) -> None:
+        """A person's contact force on ``name`` during a substep (for the snapshot's contact_force_n)."""
+        self._force[name] = max(self._force[name], force)
+
+    def notice(self, event: ContactEvent) -> None:
+        """A contact episode ended: a push makes the character stagger."""
+        ch = self.characters.get(event.character)
+        if ch is not None and event.push:
+            ch.staggered()
+
+    def threshold(self, name: str) -> float:
+        return self.characters[name].spec.push_threshold_ns
+
+    def after_tick(self, t: float, control_dt: float, changes: list[StateChange]) -> None:
+        for name, ch in self.characters.items():
+            before, after = self._states[name], ch.state
+            if before != after:
+                changes.append(StateChange(t=t, character=name, before=before, after=after))
+                self._states[name] = after
+            com, v = ch.com_state()
+            _, orn = ch.root()
+            h = bal.heading_of(orn)
+            self._keep_on_stage(ch, float(com[0]), float(com[1]), h)
+            self._travel[name][0] += (v[0] * math.cos(h) + v[1] * math.sin(h)) * control_dt
+            self._travel[name][1] += (v[0] * math.sin(h) - v[1] * math.cos(h)) * control_dt
+
+    def _keep_on_stage(self, ch: ArticulatedCharacter, x: float, y: float, heading: float) -> None:
+        x0, x1, y0, y1 = self._stage
+        out_x = (x > x1 - EDGE_M and math.cos(heading) > 0) or (x < x0 + EDGE_M and math.cos(heading) < 0)
+        out_y = (y > y1 - EDGE_M and math.sin(heading) > 0) or (y < y0 + EDGE_M and math.sin(heading) < 0)
+        if out_x or out_y:
+            ch.steer(math.atan2((y0 + y1) / 2 - y, (x0 + x1) / 2 - x))
+        elif ch.heading_goal is not None and abs(math.remainder(ch.heading_goal - heading, math.tau)) < 0.2:
+            ch.steer(None)  # turned: walk on
+
+    def clear_forces(self) -> None:
+        for name in self._force:
+            self._force[name] = 0.0
+
+    def snapshots(self) -> tuple[CharacterSnapshot, ...]:
+        out = []
+        for name, ch in self.characters.items():
+            com, v = ch.com_state()
+            _, orn = ch.root()
+            _, w = p.getBaseVelocity(ch.body, physicsClientId=self._client)
+            state = ch.state
+            lying = state in (CharacterState.LIE, CharacterState.STAND_UP) or state == CharacterState.FALL
+            out.append(CharacterSnapshot(
+                name=name,
+                position=(float(com[0]), float(com[1]), float(com[2])),
+                orientation=(float(orn[0]), float(orn[1]), float(orn[2]), float(orn[3])),
+                velocity=(float(v[0]), float(v[1]), float(v[2])),
+                angular_velocity=(float(w[0]), float(w[1]), float(w[2])),
+                heading=bal.heading_of(orn),
+                tilt=bal.tilt_components(orn),
+                d_front=self._travel[name][0],
+                d_side=self._travel[name][1],
+                state=state,
+                behaviour="stand_up" if state == CharacterState.STAND_UP else ("fall" if state in _DOWN else "walk"),
+                intent="walk",
+                face_up=bal.face_up(orn) if lying and state != CharacterState.STAND_UP else None,
+                contact_force_n=self._force[name],
+                height=ch.spec.height,
+                kind=ch.spec.name,
+                balance_load=10.0 if state in _DOWN else float(np.clip(ch.load, 0.0, 10.0)),
+                links=ch.link_poses(),
+            ))
+        return tuple(out)
