@@ -1,17 +1,59 @@
 """Textured overlays of the renderer: the people's silhouette (on the calibrated stage plane, through the
-inverse homography, or stretched over the frame) and the HUD text."""
+inverse homography, or stretched over the frame), the HUD text, and the kiosk's captions: the call to
+action of attract mode (large, centred, pulsing) and the diagnostics panel (top right)."""
 
 from __future__ import annotations
 
 import ctypes
+from dataclasses import dataclass
 from types import ModuleType
 
+import cv2
 import numpy as np
 
 from interaction.calibration import Calibration
 from render.effects import Hud
 from render.glcontext import attribute, gen, uniform, uniform_matrix, upload
 from render.style import RenderStyle, rgb
+
+
+@dataclass(frozen=True)
+class Captions:
+    """Text drawn over the scene: ``call_to_action`` at ``strength`` (0: not drawn, 1: full), and the
+    ``diagnostics`` panel's lines (empty: no panel). ASCII only (OpenCV's Hershey font)."""
+
+    call_to_action: str = ""
+    strength: float = 0.0
+    diagnostics: tuple[str, ...] = ()
+
+
+def call_to_action_image(text: str, height: int) -> np.ndarray:
+    """``text`` large, white with a dark outline, on a transparent RGBA image (row 0 at the top); the
+    letters are about height / 10 pixels tall."""
+    font, scale = cv2.FONT_HERSHEY_DUPLEX, max(0.5, height / 260.0)
+    thick = max(1, round(scale * 1.6))
+    outline = thick + max(2, round(scale * 2))
+    (w, h), base = cv2.getTextSize(text, font, scale, outline)
+    pad = outline + 4
+    img = np.zeros((h + base + 2 * pad, w + 2 * pad, 4), np.uint8)
+    org = (pad, pad + h)
+    cv2.putText(img, text, org, font, scale, (20, 20, 30, 200), outline, cv2.LINE_AA)
+    cv2.putText(img, text, org, font, scale, (255, 255, 255, 255), thick, cv2.LINE_AA)
+    return img
+
+
+def panel_image(lines: tuple[str, ...], colour: tuple[int, int, int]) -> np.ndarray:
+    """Lines of small text on a dark translucent panel, RGBA, row 0 at the top."""
+    font, scale, thick = cv2.FONT_HERSHEY_SIMPLEX, 0.42, 1
+    sizes = [cv2.getTextSize(line or " ", font, scale, thick)[0] for line in lines]
+    line_h = max(s[1] for s in sizes) + 8
+    img = np.zeros((line_h * len(lines) + 10, max(s[0] for s in sizes) + 16, 4), np.uint8)
+    img[..., 3] = 180
+    for i, line in enumerate(lines):
+        bad = line.startswith("!")
+        cv2.putText(img, line, (8, 4 + line_h * (i + 1) - 5), font, scale,
+                    ((255, 120, 90, 255) if bad else (*colour, 255)), thick, cv2.LINE_AA)
+    return img
 
 
 class Overlays:
@@ -22,6 +64,12 @@ class Overlays:
         self.gl, self.prog, self.quad_vao, self.style = gl, prog, quad_vao, style
         self.silhouette_tex = gen(gl, gl.glGenTextures)
         self.hud_tex = gen(gl, gl.glGenTextures)
+        self.cta_tex = gen(gl, gl.glGenTextures)
+        self.panel_tex = gen(gl, gl.glGenTextures)
+        self._cta: tuple[str, int, int] | None = None  # (text, height, alpha level) in cta_tex
+        self._cta_image: tuple[str, int, np.ndarray] | None = None
+        self._panel: tuple[str, ...] | None = None
+        self._panel_size = (0, 0)
         self.silhouette_vbo = gen(gl, gl.glGenBuffers)
         self.silhouette_vao = gen(gl, gl.glGenVertexArrays)
         gl.glBindVertexArray(self.silhouette_vao)
@@ -102,3 +150,43 @@ class Overlays:
         gl.glBindVertexArray(self.quad_vao)
         gl.glDrawArrays(gl.GL_TRIANGLE_STRIP, 0, 4)
 
+
+    def _place(self, texture: int, x: float, y: float, w: int, h: int, width: int, height: int) -> None:
+        """Draw ``texture`` (row 0 at its top) as a w × h pixel rectangle whose top-left corner is at
+        pixel (x, y) of a width × height target (row 0 at the top of the read-back image)."""
+        gl = self.gl
+        gl.glActiveTexture(gl.GL_TEXTURE0)
+        gl.glBindTexture(gl.GL_TEXTURE_2D, texture)
+        prog = self.prog["OVERLAY"]
+        gl.glUseProgram(prog)
+        gl.glUniform1i(gl.glGetUniformLocation(prog, b"image"), 0)
+        uniform(gl, prog, "rect", -1.0 + 2.0 * x / width, -1.0 + 2.0 * y / height,
+                -1.0 + 2.0 * (x + w) / width, -1.0 + 2.0 * (y + h) / height)
+        gl.glUniform1i(gl.glGetUniformLocation(prog, b"flip"), 0)
+        gl.glBindVertexArray(self.quad_vao)
+        gl.glDrawArrays(gl.GL_TRIANGLE_STRIP, 0, 4)
+
+    def captions(self, captions: Captions, width: int, height: int) -> None:
+        """The call to action (centred, in the lower third) and the diagnostics panel (top right)."""
+        strength = min(1.0, max(0.0, float(captions.strength)))
+        if captions.call_to_action and strength > 0.0:
+            level = max(1, round(strength * 32))  # the alpha is baked in: re-upload at most 32 levels
+            key = (captions.call_to_action, height, level)
+            if self._cta_image is None or self._cta_image[:2] != key[:2]:
+                self._cta_image = (key[0], key[1], call_to_action_image(key[0], height))
+            img = self._cta_image[2]
+            if self._cta != key:
+                faded = img.copy()
+                faded[..., 3] = (img[..., 3].astype(np.float32) * (level / 32)).astype(np.uint8)
+                self.texture(self.cta_tex, faded)
+                self._cta = key
+            w, h = min(img.shape[1], width), img.shape[0]
+            self._place(self.cta_tex, (width - w) / 2, height * 0.78 - h / 2, w, h, width, height)
+        if captions.diagnostics:
+            if self._panel != captions.diagnostics:
+                colour = tuple(int(255 * c) for c in rgb("hud_text", self.style.colours.hud_text))
+                img = panel_image(captions.diagnostics, (colour[0], colour[1], colour[2]))
+                self.texture(self.panel_tex, img)
+                self._panel, self._panel_size = captions.diagnostics, (img.shape[1], img.shape[0])
+            w, h = self._panel_size
+            self._place(self.panel_tex, max(0.0, width - w - 16.0), 16.0, w, h, width, height)

@@ -11,8 +11,9 @@ sensor's clock, behaves as a live driver does when its device drops out:
 - with ``fail = true`` the first outage never ends: RECONNECTING for ``down_for_s``, then FAILED,
   and ``read`` raises :class:`SimulatedFailure` (as a driver does once it gives up);
 - ``corrupt_every = N`` replaces the payload of every Nth delivered frame with garbage of the same
-  shape ("noise": random values; "blank": zeros — no depth, a black image, no force), the way a
-  glitching device delivers well-formed nonsense. The garbage is a function of ``seed`` and the
+  shape ("noise": random values; "blank": zeros — no depth, a black image, no force; "nan": pad
+  forces NaN and ±inf, the way a broken calibration or driver bug delivers them — images hold whole
+  numbers, so for them "nan" is "noise"), the way a glitching device delivers well-formed nonsense. The garbage is a function of ``seed`` and the
   frame's ``seq``, so runs repeat exactly.
 
 Everything is decided by times (the clock's and the frames'), so on a SimClock a faulty replay is
@@ -45,7 +46,7 @@ from sensors.base import (
 from sensors.clock import Clock
 from sensors.replay import ReplayConfig
 
-Corruption = Literal["noise", "blank"]
+Corruption = Literal["noise", "blank", "nan"]
 Phase = Literal["up", "down", "failed"]
 
 
@@ -84,8 +85,8 @@ class FaultSchedule:
             raise ValueError(f"fail: expected true or false, got {self.fail!r}")
         if isinstance(self.corrupt_every, bool) or not isinstance(self.corrupt_every, int) or self.corrupt_every < 0:
             raise ValueError(f"corrupt_every: expected a whole number >= 0 (0 = never), got {self.corrupt_every!r}")
-        if self.corruption not in ("noise", "blank"):
-            raise ValueError(f"corruption: expected 'noise' or 'blank', got {self.corruption!r}")
+        if self.corruption not in ("noise", "blank", "nan"):
+            raise ValueError(f"corruption: expected 'noise', 'blank' or 'nan', got {self.corruption!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"seed: expected a whole number >= 0, got {self.seed!r}")
 
@@ -119,18 +120,22 @@ def corrupt_payload(payload: Payload, kind: Corruption, rng: np.random.Generator
     """Garbage of the same type and shape as ``payload``."""
     if isinstance(payload, ColorImage):
         shape = payload.bgr.shape
-        return ColorImage(rng.integers(0, 256, shape, dtype=np.uint8) if kind == "noise" else np.zeros(shape, np.uint8))
+        return ColorImage(rng.integers(0, 256, shape, dtype=np.uint8) if kind != "blank" else np.zeros(shape, np.uint8))
     if isinstance(payload, DepthImage):
         shape = payload.depth_mm.shape
-        depth = rng.integers(0, 65536, shape, dtype=np.uint16) if kind == "noise" else np.zeros(shape, np.uint16)
+        depth = rng.integers(0, 65536, shape, dtype=np.uint16) if kind != "blank" else np.zeros(shape, np.uint16)
         color = None
         if payload.color is not None:
             cshape = payload.color.shape
-            color = rng.integers(0, 256, cshape, dtype=np.uint8) if kind == "noise" else np.zeros(cshape, np.uint8)
+            color = rng.integers(0, 256, cshape, dtype=np.uint8) if kind != "blank" else np.zeros(cshape, np.uint8)
         return replace(payload, depth_mm=depth, color=color)
     n = len(payload.newtons)
     if kind == "blank":
         return PadSample(newtons=(0.0,) * n, raw=(0,) * n)
+    if kind == "nan":  # every pad non-finite: NaN, +inf, -inf in turn from a random start
+        start = int(rng.integers(0, 3))
+        bad = (math.nan, math.inf, -math.inf)
+        return PadSample(newtons=tuple(bad[(start + i) % 3] for i in range(n)), raw=(0,) * n)
     newtons = tuple(float(v) for v in rng.uniform(-5000.0, 5000.0, n))
     return PadSample(newtons=newtons, raw=tuple(int(v) for v in rng.integers(-(2**31), 2**31, n)))
 

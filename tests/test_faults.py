@@ -140,6 +140,26 @@ def test_every_nth_frame_is_well_formed_garbage(recording: Path, channel: str, c
     assert [frame_digest(f) for f in run()] == [frame_digest(f) for f in got]  # the garbage repeats exactly
 
 
+def test_nan_garbage_makes_every_pad_force_non_finite_and_images_noise(recording: Path) -> None:
+    schedule = FaultSchedule(disconnect_at_s=100.0, corrupt_every=2, corruption="nan", seed=3)
+    for channel in CHANNELS:
+        clock = SimClock()
+        frames = [f for *_, fs in drive(FaultySensor(Replay(recording, clock, channel=channel), schedule, clock),
+                                        clock, 0.5) for f in fs]
+        bad = frames[1::2]
+        assert len(bad) >= 5
+        for f in bad:
+            if isinstance(f.payload, PadSample):
+                assert not any(np.isfinite(f.payload.newtons))
+                assert {repr(v) for v in f.payload.newtons} <= {"nan", "inf", "-inf"}
+            elif isinstance(f.payload, DepthImage):
+                assert f.payload.depth_mm.std() > 0
+            else:
+                assert f.payload.bgr.std() > 0
+        if channel == "pads":
+            assert all(np.isfinite(f.payload.newtons).all() for f in frames[0::2])  # type: ignore[union-attr]
+
+
 @pytest.mark.parametrize("channel", list(CHANNELS))
 @pytest.mark.parametrize("clock_start", [0.0, 12.5])
 def test_faulty_replays_keep_the_contract(recording: Path, channel: str, clock_start: float) -> None:
@@ -169,7 +189,7 @@ def test_the_registry_builds_one_from_a_config_table(recording: Path) -> None:
         ("disconnect_at_s", -1.0, "disconnect_at_s: expected seconds >= 0"),
         ("repeat_every_s", 0.5, r"repeat_every_s: expected 0 \(once\) or seconds > down_for_s \(1\)"),
         ("corrupt_every", -2, "corrupt_every: expected a whole number >= 0"),
-        ("corruption", "static", "corruption: expected 'noise' or 'blank'"),
+        ("corruption", "static", "corruption: expected 'noise', 'blank' or 'nan'"),
         ("path", Path(""), "path: expected the path of an .mcap recording"),
     ],
 )
