@@ -19,10 +19,14 @@ import numpy as np
 
 from interaction.fusion import SensorFusion
 from interaction.types import BodyObservation
-from jostle.config import JostleConfig
+from jostle.config import JostleConfig, ObserverEntry
+from jostle.observer_guard import ObserverGuard
 from jostle.observers import Observer, observer_types
+from jostle.operations import Operations
 from jostle.progress import Progress
+from jostle.session_recording import SessionRecorder
 from jostle.summary import RunSummary, SnapshotTally
+from jostle.terrain_wiring import TerrainWiring, attach_terrain
 from sensors.base import Sensor, SensorState
 from sensors.clock import Clock, SimClock, WallClock
 from sensors.registry import SENSOR_TYPES
@@ -96,11 +100,18 @@ class App:
         if clock is None:
             clock = WallClock() if (live or options.speed == "realtime") else SimClock()
         self.clock = clock
+        # attract mode, health report, diagnostics, systemd supervision (jostle.operations)
+        self.operations = Operations(config, options.mode, live=not isinstance(clock, SimClock))
         self.summary = RunSummary(seed=self.seed)
         self.tally = SnapshotTally(self.summary)
         # wall seconds spent in each stage of the loop (for `jostle bench pipeline`)
         self.stage_seconds: dict[str, float] = dict.fromkeys(("sensors", "observe", "simulate", "draw", "encode"), 0.0)
         self.on_frame: Callable[[WorldSnapshot, BodyObservation, np.ndarray | None], None] | None = None
+        # faults survived (jostle.observer_guard, jostle.session_recording): read by tests and the health report
+        self.observer_guards: dict[str, ObserverGuard] = {}
+        self.session_recorder: SessionRecorder | None = None
+        self.sensors: dict[str, Sensor] = {}  # this run's sensors (filled by run())
+        self.terrain: TerrainWiring | None = None  # [terrain]: the cubes people build (filled by run())
 
     def run(self) -> RunSummary:
         from render.draw import Renderer
@@ -110,12 +121,16 @@ class App:
         cfg = self.config
         opts = self.options
         wall0 = time.perf_counter()
-        sensors: dict[str, Sensor] = {}
+        sensors: dict[str, Sensor] = self.sensors
         observers: dict[str, tuple[str, Observer]] = {}  # observer name -> (sensor name, observer)
         for entry in cfg.sensors:
             sensors[entry.name] = SENSOR_TYPES[entry.type].load(entry.config, entry.name, self.clock)
         for ob in cfg.observers:
-            observers[ob.name] = (ob.sensor, observer_types()[ob.type].build(ob.config, ob.calibration, ob.sensor))
+            guard = ObserverGuard(ob.name, _observer_builder(ob), self.clock)  # a crash: logged, rebuilt later
+            self.observer_guards[ob.name] = guard
+            observers[ob.name] = (ob.sensor, guard)
+        if cfg.record.enabled:
+            self.session_recorder = SessionRecorder(cfg.record, metadata={"config": str(cfg.path)})
         recordings = [str(e.config.path) for e in cfg.sensors if _is_replay(e.config)]
         self.summary.recording = ", ".join(recordings) if recordings else None
 
@@ -126,6 +141,8 @@ class App:
         out_dir = opts.out_dir
         try:
             self.summary.characters = place_characters(cfg, world, self.seed)
+            self.terrain = attach_terrain(cfg, world)  # the layout built; None without [terrain]
+            self.summary.characters += len(cfg.quadrupeds)  # (they need [terrain]: stood on it just above)
             from render.style import RenderStyle
 
             renderer = Renderer(
@@ -136,6 +153,7 @@ class App:
                 style=RenderStyle(camera=cfg.render.camera, colours=cfg.render.colours, look=cfg.render.look),
                 stage_x=(cfg.world.x_min, cfg.world.x_max),
                 com_fraction={g.spec.name: g.spec.com_height / g.spec.height for g in cfg.characters} or 0.5,
+                exit_keys=cfg.kiosk.exit_keys,
             )
             if out_dir is not None:
                 out_dir.mkdir(parents=True, exist_ok=True)
@@ -145,10 +163,14 @@ class App:
                     self.summary.video = str(video_path)
             for s in sensors.values():
                 s.open()
+            self.operations.start()
             self._loop(sensors, observers, world, renderer, keyframes, video)
         finally:
+            self.operations.close(self.summary.stopped_because)
             for s in sensors.values():
                 s.close()
+            if self.session_recorder is not None:
+                self.session_recorder.close()
             if video is not None:
                 video.close()
             if renderer is not None:
@@ -195,6 +217,7 @@ class App:
         ended_at: float | None = None
         bar = Progress(total, "jostle run", "sim s", enabled=opts.progress)
         spent = self.stage_seconds
+        terrain = self.terrain
         fusion = SensorFusion()  # a person seen by two sensors is pushed once
         silhouette_calibration = None
         for _, observer in observers.values():
@@ -215,13 +238,20 @@ class App:
                     mark = clock()
                     while (frame := sensor.read(0.0)) is not None:
                         self.summary.sensor_frames += 1
+                        if self.session_recorder is not None:
+                            self.session_recorder.write(frame)
                         spent["sensors"] += clock() - mark
                         for ob_name, (src, observer) in observers.items():
                             if src != sensor_name:
                                 continue
                             mark = clock()
                             obs = observer.observe(frame)
+                            if terrain is not None and ob_name == terrain.section.boxes:  # boxes on the floor
+                                obs = terrain.observe_depth(frame, obs)  # (a stack as tall as a person is no one)
                             spent["observe"] += clock() - mark
+                            pending = latest.get(ob_name)
+                            if pending is not None and pending.impulses:  # several pad samples per frame:
+                                obs = dataclasses.replace(obs, impulses=pending.impulses + obs.impulses)  # keep all hits
                             latest[ob_name] = obs
                             sil = getattr(observer, "silhouette", None)
                             if isinstance(sil, np.ndarray):
@@ -230,7 +260,11 @@ class App:
                                 self.summary.observed_frames_with_people += 1
                         mark = clock()
                     spent["sensors"] += clock() - mark
+                    if sensor.status.state in _SENSOR_DOWN:  # unplugged: the people it saw are not there now
+                        _forget_sensor(sensor_name, observers, latest, silhouettes)
                 observation = fusion.merge(now, list(latest.values()))
+                if terrain is not None:  # a hand held still over a floor cell places a cube
+                    terrain.observe_hands(observation)
                 mark = clock()
                 # on simulated time this is exactly dt; live, a slow frame hands the world all the
                 # time that really passed (the world caps catch-up and reports what it dropped)
@@ -241,11 +275,15 @@ class App:
                     if obs.impulses:
                         latest[ob_name] = dataclasses.replace(obs, impulses=())
                 self.tally.add(snap)
+                self.operations.frame(now, snap, observation, sensors, world, self.observer_guards)
                 silhouette = next(iter(silhouettes.values()), None) if cfg.render.show_silhouette else None
                 mark = clock()
                 image = renderer.draw(snap, observation if cfg.render.show_contactors else None, keyframes,
-                                      silhouette=silhouette, silhouette_calibration=silhouette_calibration)
+                                      silhouette=silhouette, silhouette_calibration=silhouette_calibration,
+                                      captions=self.operations.captions(now),
+                                      terrain=None if terrain is None else terrain.view())
                 spent["draw"] += clock() - mark
+                self.operations.keys(renderer.take_keys())  # pressed while the frame was shown
                 self.summary.frames_rendered += 1
                 if video is not None:
                     mark = clock()
@@ -274,6 +312,23 @@ class App:
             self.summary.stopped_because = "interrupted"
         finally:
             bar.close()
+
+
+_SENSOR_DOWN = (SensorState.RECONNECTING, SensorState.FAILED)
+
+
+def _forget_sensor(name: str, observers: dict[str, tuple[str, Observer]], latest: dict[str, BodyObservation],
+                   silhouettes: dict[str, np.ndarray]) -> None:
+    """Drop what the observers of sensor ``name`` last saw (its contactors would push on, stale)."""
+    for ob_name, (src, _) in observers.items():
+        if src == name:
+            latest.pop(ob_name, None)
+            silhouettes.pop(ob_name, None)
+
+
+def _observer_builder(ob: ObserverEntry) -> Callable[[], Observer]:
+    """Builds the observer of ``ob`` afresh from its config (at start, and after a crash)."""
+    return lambda: observer_types()[ob.type].build(ob.config, ob.calibration, ob.sensor)
 
 
 def _is_replay(config: object) -> bool:

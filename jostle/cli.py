@@ -27,6 +27,7 @@ examples:
   jostle replay session.mcap --config configs/webcam.toml    run a recorded session again
   jostle synth performer --clip walk --out demo.mcap         make a recording of a virtual person
   jostle doctor                                              check OpenGL, cameras, serial, DepthAI
+  jostle service install configs/webcam.toml --user          start it at boot under systemd (kiosk)
 Run 'jostle COMMAND --help' for each command's options.
 """
 
@@ -48,6 +49,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--debug", action="store_true", help="show full tracebacks and debug logging")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     commands.add_all(sub)
+    __import__("jostle.ragdoll_cli", fromlist=["add"]).add(sub)  # jostle ragdoll (articulated characters)
+    __import__("jostle.terrain_cli", fromlist=["add"]).add(sub)  # jostle terrain (cube layouts)
     return p
 
 
@@ -58,6 +61,9 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.DEBUG if args.debug else logging.INFO,
         format="jostle: %(levelname)s: %(message)s" if not args.debug else "%(asctime)s %(name)s %(levelname)s %(message)s",
     )
+    from jostle.journal import adopt_journal, prefix
+
+    adopt_journal()  # under systemd: one `<priority>key=value` line per record, for the journal
     from jostle.errors import user_facing
     from jostle.quiet import import_pybullet_quietly
 
@@ -75,13 +81,14 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as e:  # one line for what the user can fix; a traceback only for real bugs
         message = user_facing(e)
         if message is not None:
-            print(f"jostle: error: {message}", file=sys.stderr)
+            print(f"{prefix(logging.ERROR)}jostle: error: {message}", file=sys.stderr)
             if args.debug:
                 traceback.print_exc()
             return 2
         if args.debug:
             raise
-        print(f"jostle: internal error: {type(e).__name__}: {e} (run with --debug for the traceback)", file=sys.stderr)
+        print(f"{prefix(logging.ERROR)}jostle: internal error: {type(e).__name__}: {e} (run with --debug for the "
+              "traceback)", file=sys.stderr)
         return 1
     finally:
         warnings.showwarning = previous_showwarning
@@ -96,7 +103,9 @@ def _one_line_warning(
     line: str | None = None,
 ) -> None:
     """Warnings (a damaged recording, a missing keyframe behaviour) as one line for the user."""
-    print(f"jostle: warning: {message}", file=sys.stderr)
+    from jostle.journal import prefix
+
+    print(f"{prefix(logging.WARNING)}jostle: warning: {message}", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -17,13 +17,14 @@ def add_all(sub: Sub) -> None:
     _add_record(sub)
     _add_replay(sub)
     _add_info(sub)
-    from jostle import bench_cli, calibrate_cli, keyframes_cli, synth_cli, tools_cli
+    from jostle import bench_cli, calibrate_cli, keyframes_cli, service_cli, synth_cli, tools_cli
 
     synth_cli.add(sub)
     keyframes_cli.add(sub)
     calibrate_cli.add(sub)
     tools_cli.add(sub)
     bench_cli.add(sub)
+    service_cli.add(sub)
 
 
 # ------------------------------------------------------------------------------------------ run
@@ -99,7 +100,8 @@ def _execute(config_path: Path, args: argparse.Namespace, *, override_recording:
         progress=not args.quiet,
     )
     print(f"jostle: running {config_path} ({args.mode}, speed {speed}) …", file=sys.stderr)
-    summary = App(config, options).run()
+    app = App(config, options)
+    summary = app.run()
     out = args.out
     print(
         f"jostle: {summary.characters} characters, {summary.sim_seconds:.1f} s simulated in "
@@ -110,6 +112,10 @@ def _execute(config_path: Path, args: argparse.Namespace, *, override_recording:
     if summary.video:
         print(f"jostle: video:   {summary.video}")
     print(f"jostle: summary: {out / 'summary.json'}")
+    if app.operations.exit_requested:  # the operator's exit keys: systemd must not start it again
+        from jostle.service_cli import OPERATOR_EXIT
+
+        return OPERATOR_EXIT
     return 0
 
 

@@ -8,6 +8,7 @@ Layout (all tables optional but ``sensors``)::
     [world]               sim.WorldConfig keys
     [[characters]]        spec = "characters/x.toml", count, intent
     [render]              width, height, fps, keyframes, ...
+    [record]              dir, quota_mb, file_minutes, min_free_mb: session recording (jostle.session_recording)
 
 Paths are relative to the config file. Every error names the file, the key and what was expected.
 """
@@ -22,9 +23,14 @@ from typing import Any, Literal
 
 from jostle.configtree import ConfigError, build
 from jostle.observers import observer_types
+from jostle.operations_config import HealthConfig, KioskConfig
+from jostle.session_recording import SessionRecordConfig
+from jostle.terrain_layout import QuadrupedGroup, QuadrupedTable, TerrainSection
 from render.style import Camera, Colours, Look
 from sensors.registry import SENSOR_TYPES
+from sim.articulated.spec import ArticulatedSpec
 from sim.config import CharacterSpec, WorldConfig
+from sim.quadruped.config import QuadrupedSpec
 
 __all__ = ["ConfigError", "JostleConfig", "load_config", "load_toml"]
 
@@ -83,7 +89,7 @@ class ObserverEntry:
 
 @dataclass(frozen=True)
 class CharacterGroup:
-    spec: CharacterSpec
+    spec: CharacterSpec | ArticulatedSpec  # body = "articulated" in the spec file: an ArticulatedSpec
     count: int
     intent: str
     source: Path
@@ -100,10 +106,16 @@ class JostleConfig:
     characters: tuple[CharacterGroup, ...]
     render: RenderConfig
     raw: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    kiosk: KioskConfig = field(default_factory=KioskConfig)  # [kiosk]: exit keys, attract mode, diagnostics
+    health: HealthConfig = field(default_factory=HealthConfig)  # [health]: health report, systemd watchdog
+    record: SessionRecordConfig = field(default_factory=SessionRecordConfig)  # [record]: session files, quota
+    terrain: TerrainSection | None = None  # [terrain]: the cube grid people build (jostle.terrain_layout)
+    quadrupeds: tuple[QuadrupedGroup, ...] = ()  # [[quadrupeds]]: four-legged characters on the terrain
 
 
 INTENTS = ("idle", "wander", "approach", "flee", "follow")
-TOP_KEYS = ("run", "sensors", "observers", "world", "characters", "render")
+TOP_KEYS = ("run", "sensors", "observers", "world", "characters", "render", "kiosk", "health", "record", "terrain",
+            "quadrupeds")
 
 
 def load_toml(path: Path) -> dict[str, Any]:
@@ -202,12 +214,22 @@ def load_config(path: str | Path) -> JostleConfig:
             raise ConfigError(f"{source}: {key}: expected a table")
         group = build(_GroupTable, entry, source=source, key=key, base_dir=base)
         spec_doc = load_toml(group.spec)
-        spec = build(CharacterSpec, spec_doc, source=str(group.spec), key="", base_dir=group.spec.parent)
+        spec: CharacterSpec | ArticulatedSpec
+        if spec_doc.get("body") == "articulated":
+            spec = build(ArticulatedSpec, spec_doc, source=str(group.spec), key="", base_dir=group.spec.parent)
+        else:
+            spec = build(CharacterSpec, spec_doc, source=str(group.spec), key="", base_dir=group.spec.parent)
         groups.append(CharacterGroup(spec, group.count, group.intent, group.spec,
                                      None if group.keyframes == Path() else group.keyframes))
 
     render = build(RenderConfig, _table(doc, "render", source), source=source, key="render", base_dir=base)
-    return JostleConfig(path, run, tuple(sensors), tuple(observers), world, tuple(groups), render, doc)
+    kiosk = build(KioskConfig, _table(doc, "kiosk", source), source=source, key="kiosk", base_dir=base)
+    health = build(HealthConfig, _table(doc, "health", source), source=source, key="health", base_dir=base)
+    record = build(SessionRecordConfig, _table(doc, "record", source), source=source, key="record", base_dir=base)
+    terrain, quadrupeds = _terrain(doc, observers, source, base)
+    return JostleConfig(path, run, tuple(sensors), tuple(observers), world, tuple(groups), render, doc,
+                        kiosk=kiosk, health=health, record=record, terrain=terrain,
+                        quadrupeds=quadrupeds)
 
 
 @dataclass(frozen=True)
@@ -224,3 +246,27 @@ class _GroupTable:
             raise ValueError(f"spec: no such character file {self.spec}")
         if self.keyframes != Path() and not self.keyframes.exists():
             raise ValueError(f"keyframes: no such keyframe set {self.keyframes}")
+
+
+def _terrain(doc: Mapping[str, Any], observers: list[ObserverEntry], source: str, base: Path
+             ) -> tuple[TerrainSection | None, tuple[QuadrupedGroup, ...]]:
+    """``[terrain]`` (None when absent; its ``boxes`` must name a depth observer) and ``[[quadrupeds]]``."""
+    tables = doc.get("quadrupeds", [])
+    if not isinstance(tables, list) or not all(isinstance(t, Mapping) for t in tables):
+        raise ConfigError(f"{source}: quadrupeds: expected [[quadrupeds]] tables")
+    if "terrain" not in doc:
+        if tables:
+            raise ConfigError(f"{source}: quadrupeds: a quadruped walks on the cube terrain: add a [terrain] table")
+        return None, ()
+    terrain = build(TerrainSection, _table(doc, "terrain", source), source=source, key="terrain", base_dir=base)
+    depth = [o.name for o in observers if o.type == "depth"]
+    if terrain.boxes and terrain.boxes not in depth:
+        raise ConfigError(f"{source}: terrain.boxes: expected the name of a depth observer "
+                          f"({', '.join(depth) or 'none configured'}), got {terrain.boxes!r}")
+    groups = []
+    for i, t in enumerate(tables):
+        table = build(QuadrupedTable, t, source=source, key=f"quadrupeds[{i}]", base_dir=base)
+        spec = QuadrupedSpec() if table.spec == Path() else build(
+            QuadrupedSpec, load_toml(table.spec), source=str(table.spec), key="", base_dir=table.spec.parent)
+        groups.append(QuadrupedGroup(spec, table))
+    return terrain, tuple(groups)

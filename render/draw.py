@@ -38,7 +38,8 @@ from render.glcontext import (
     upload,
 )
 from render.keyframes import KeyframeSet
-from render.overlays import Overlays
+from render.links import articulated_part, merge_parts
+from render.overlays import Captions, Overlays
 from render.scene import (
     BLOB_FLOATS,
     CAPSULE_FLOATS,
@@ -55,6 +56,8 @@ from render.scene import (
 from render.skeleton_pose import com_fraction as set_com_fraction
 from render.skeletons import figure_for
 from render.style import Camera, RenderStyle, rgb
+from render.terrain import TerrainLayer, TerrainView
+from render.window_keys import WindowKeys
 from sim.snapshot import CharacterSnapshot, WorldSnapshot
 
 __all__ = ["Renderer", "RendererUnavailable", "display_available"]
@@ -92,6 +95,7 @@ class Renderer:
         stage_x: tuple[float, float] = (-3.0, 3.0),
         com_fraction: float | Mapping[str, float] = 0.5,
         flash_newtons: float | None = None,
+        exit_keys: str | None = None,
     ) -> None:
         for name, v in (("width", width), ("height", height)):
             if not isinstance(v, int) or v <= 0 or v > 8192:
@@ -115,8 +119,10 @@ class Renderer:
         self.hud = Hud(rgb("hud_text", self.style.colours.hud_text)) if look.hud else None
         tune_malloc()
         self._window, self._gl = open_context(headless, width, height, fullscreen and not headless)
+        self._keys = None if headless else WindowKeys(self._window, exit_keys, kiosk=fullscreen)  # Esc: see there
         self._closed = False
         self._warned: set[str] = set()
+        self._terrain: TerrainLayer | None = None  # made on the first frame with cubes to draw
         gl = self._gl
         # render_scale < 1 draws the scene smaller and scales it up (the HUD stays sharp): fragments are
         # what a frame costs on llvmpipe, so a crowd can trade sharpness for frame rate
@@ -174,6 +180,8 @@ class Renderer:
         *,
         silhouette: np.ndarray | None = None,
         silhouette_calibration: Calibration | None = None,
+        captions: Captions | None = None,
+        terrain: TerrainView | None = None,
     ) -> np.ndarray:
         """The frame as a new (height, width, 3) uint8 BGR array.
 
@@ -201,6 +209,9 @@ class Renderer:
         gl.glDepthFunc(gl.GL_LESS)
         gl.glDisable(gl.GL_BLEND)
         self._draw_quads("CAPSULE", self._figures_vao, instances, vp)
+        if terrain is not None:  # the cubes people build (render.terrain)
+            self._terrain = self._terrain or TerrainLayer(gl, self.headless)
+            self._terrain.draw(terrain, vp, self.camera.eye)
         gl.glFlush()  # the figures are drawn while their shadows and contacts are worked out here
         heights = np.array([c.height for c in chars], dtype=float)
         contacts = {}
@@ -227,6 +238,8 @@ class Renderer:
         if self.hud is not None:
             self.hud.update(chars, observation)
             self._overlays.hud(self.hud, self.width, self.height)
+        if captions is not None:  # the kiosk's call to action and diagnostics panel
+            self._overlays.captions(captions, self.width, self.height)
         gl.glDepthMask(gl.GL_TRUE)
         gl.glBindVertexArray(0)
         # headless shaders write BGRA (see shaders.order_define); a window renderer's frame is RGBA
@@ -297,10 +310,13 @@ class Renderer:
         heights = np.array([c.height for c in chars], dtype=float)
         behaviours = self.fade.behaviours(t, chars)
         groups: dict[int, tuple[KeyframeSet, list[int]]] = {}
+        linked = [i for i, c in enumerate(chars) if c.links]  # articulated: drawn from their own links
         for i, c in enumerate(chars):
-            kset = self._set_for(c, keyframes)
-            groups.setdefault(id(kset), (kset, []))[1].append(i)
-        parts = []
+            if not c.links:
+                kset = self._set_for(c, keyframes)
+                groups.setdefault(id(kset), (kset, []))[1].append(i)
+        parts = [articulated_part([chars[i] for i in linked], np.array(linked), self.style.colours,
+                                  self.flash_newtons)] if linked else []
         for kset, idx in groups.values():
             figure = figure_for(kset.skeleton)
             sel = np.array(idx)
@@ -312,14 +328,7 @@ class Renderer:
             a, b, r = posed_capsules(figure, poses, positions[sel], rots[sel], scale, lift)
             colours = figure_colours(group, figure.material, self.style.colours, self.flash_newtons)
             parts.append((sel, a, b, r, colours))
-        if len(parts) == 1:
-            _, a, b, r, colours = parts[0]
-        else:  # several sets: back into snapshot order (every figure has the same number of capsules)
-            per = parts[0][1].shape[1]
-            a, b = np.zeros((n, per, 3)), np.zeros((n, per, 3))
-            r, colours = np.zeros((n, per)), np.zeros((n, per, 5))
-            for sel, pa, pb, pr, pc in parts:
-                a[sel], b[sel], r[sel], colours[sel] = pa, pb, pr, pc
+        a, b, r, colours = merge_parts(parts, n)  # several sets: back into snapshot order
         instances = np.concatenate([a, b, r[..., None], colours], axis=2).reshape(-1, CAPSULE_FLOATS)
         return a, b, r, instances
 
@@ -347,6 +356,10 @@ class Renderer:
     def should_close(self) -> bool:
         """A window or kiosk renderer whose window was closed (or Esc pressed): time to stop."""
         return bool(not self.headless and getattr(self._window, "has_exit", False))
+
+    def take_keys(self) -> tuple[str, ...]:
+        """Key combinations pressed in the window since the last call ("f1", "ctrl+shift+q"); none headless."""
+        return () if self._keys is None else self._keys.take()
 
     def present(self) -> None:
         """Window mode: show the last drawn frame letterboxed in the window and handle its events;

@@ -12,8 +12,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sim.ai import Stage
+from sim.body import reset_body, set_friction, write_velocities
 from sim.config import WorldConfig
-from sim.crowd import Crowd
+from sim.crowd import WALK, Crowd
+from sim.frames import yaw_quaternion
 
 IntArray = NDArray[np.int64]
 
@@ -80,3 +82,31 @@ def free_spot(crowd: Crowd, row: int, stage: Stage, rng: np.random.Generator,
         if free(px, py):
             return px, py
     return 0.5 * (lo_x + hi_x), 0.5 * (lo_y + hi_y)
+
+
+def slow_down(client: int, crowd: Crowd, cfg: WorldConfig) -> int:
+    """Scale every too-fast body down to the limits (``too_fast``) and write it; returns how many."""
+    rows = too_fast(crowd, cfg)
+    if rows.size:
+        finite = rows[np.isfinite(crowd.vel[rows]).all(axis=1) & np.isfinite(crowd.ang[rows]).all(axis=1)]
+        if finite.size:  # (non-finite ones are put back upright by the lost-character repair)
+            write_velocities(client, [crowd.bodies[i] for i in finite.tolist()], crowd.vel[finite],
+                             crowd.ang[finite])
+    return int(rows.size)
+
+
+def stand_again(client: int, crowd: Crowd, row: int, spot: tuple[float, float], t: float, gravity: float) -> int:
+    """Put character ``row`` upright and still at ``spot`` (walking, frictionless feet, its heading kept
+    when finite); returns the state it was in before."""
+    before = int(crowd.state[row])
+    heading = float(crowd.frames.heading[row]) if np.isfinite(crowd.quat[row]).all() else 0.0
+    pos = (spot[0], spot[1], float(crowd.cols.com_height[row]) + 0.002)
+    orn = yaw_quaternion(heading)
+    reset_body(client, crowd.bodies[row], pos, orn)
+    set_friction(client, crowd.bodies[row], 0.0)
+    crowd.friction_now[row] = 0.0
+    crowd.state[row], crowd.entered[row], crowd.since[row], crowd.face_up[row] = WALK, t, math.nan, -1
+    crowd.not_upright_since[row] = crowd.fell_at[row] = math.nan
+    crowd.heading_goal[row] = heading
+    crowd.place(row, pos, orn, crowd.specs[row].mass, gravity)
+    return before

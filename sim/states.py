@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from sim.ai import on_stood_up
+from sim.body import set_friction
 from sim.crowd import BRAKE, FALL, LIE, STAGGER, STAND_UP, WALK, Crowd
 
 Array = NDArray[np.float64]
@@ -122,3 +124,22 @@ def advance(crowd: Crowd, r: Readings, t: float) -> list[tuple[int, int, int]]:
     crowd.face_up[to_lie] = r.face_up[to_lie].astype(np.int64)
     crowd.face_up[changed[(after != LIE) & (after != STAND_UP)]] = -1
     return list(zip(changed.tolist(), before, after.tolist(), strict=True))
+
+
+def enter_state(client: int, crowd: Crowd, row: int, before: int, after: int, t: float,
+                floor_friction: float) -> None:
+    """What entering ``after`` does to character ``row``: frictionless feet while upright (the controller
+    owns the horizontal force), the stand-up start pose, the time of the fall, a new heading goal."""
+    mu = 0.0 if after <= STAGGER else floor_friction
+    if crowd.friction_now[row] != mu:
+        set_friction(client, crowd.bodies[row], mu)
+        crowd.friction_now[row] = mu
+    if after == STAND_UP:
+        crowd.stand_up_start[row] = crowd.frames.tilt[row]
+    elif after == FALL and math.isnan(crowd.fell_at[row]):
+        crowd.fell_at[row] = t
+    elif after == WALK:
+        crowd.heading_goal[row] = crowd.frames.heading[row]
+        if before == STAND_UP:
+            on_stood_up(crowd, row, t)
+        crowd.fell_at[row] = math.nan

@@ -27,21 +27,24 @@ import numpy as np
 import pybullet as p
 
 from interaction.types import BodyObservation
-from sim.ai import Neighbours, Stage, decide, notice_push, on_stood_up, separation_velocities
+from sim.ai import Neighbours, Stage, decide, notice_push, separation_velocities
+from sim.articulated.spec import ArticulatedSpec
+from sim.articulated.troupe import ArticulatedCharacters
 from sim.balance import BalanceDesign
-from sim.body import create_body, create_shape, read_states, reset_body, set_friction, write_velocities
+from sim.body import create_body, create_shape, read_states, write_velocities
 from sim.character import CharacterView, snapshots, view
 from sim.config import INTENTS, CharacterSpec, WorldConfig
 from sim.contactors import ContactEpisodes, ContactorPool
 from sim.control import control
-from sim.crowd import FALL, STAGGER, STAND_UP, STATES, WALK, Crowd
+from sim.crowd import STATES, WALK, Crowd
 from sim.frames import Vec3, yaw_quaternion
 from sim.inputs import SafeContactor, SafeImpulse, clean_observation, clean_push
 from sim.physics import open_client
 from sim.pushes import PAD_PERSON, Push, axis_offset, finished, tick_forces
-from sim.repair import free_spot, lost_characters, too_fast
+from sim.quadruped.herd import Quadrupeds, TerrainConfig
+from sim.repair import free_spot, lost_characters, slow_down, stand_again
 from sim.snapshot import ContactEvent, StateChange, WorldSnapshot
-from sim.states import advance, quiet, readings
+from sim.states import advance, enter_state, quiet, readings
 
 __all__ = ["PAD_PERSON", "World", "WorldCounters"]
 
@@ -88,6 +91,10 @@ class World:
         self._counts = {f: 0 for f in WorldCounters.__dataclass_fields__}
         self.physics_wall_s = 0.0  # wall seconds spent in the physics substeps (for benchmarks)
         self._neighbours = Neighbours()
+        self._own_intents: np.ndarray | None = None  # each character's own intent while set_intent_all rules
+        self.quadrupeds: Quadrupeds | None = None  # the cube terrain and the quadrupeds on it (terrain())
+        self.articulated = ArticulatedCharacters(  # PD-tracked multibody characters (issue 9)
+            client, (config.x_min, config.x_max, config.y_min, config.y_max))
 
     # ------------------------------------------------------------------ public surface
     @property
@@ -107,22 +114,29 @@ class World:
         """One character's controller record (bounds, state, load); KeyError if unknown."""
         return view(self._crowd, self._crowd.index[name])
 
-    def add_character(self, spec: CharacterSpec, position: tuple[float, float], heading: float,
+    def add_character(self, spec: CharacterSpec | ArticulatedSpec, position: tuple[float, float], heading: float,
                       intent: str = "wander", waypoints: Sequence[tuple[float, float]] | None = None) -> str:
         """Stand a new character upright at stage ``position`` facing ``heading``; returns its unique name.
 
-        ``waypoints`` (stage x, y) replaces the spec's loop for the intent ``follow``.
+        ``waypoints`` (stage x, y) replaces the spec's loop for the intent ``follow``. An ``ArticulatedSpec``
+        makes an articulated character (``sim.articulated``; it walks its clip: no intent, no waypoints).
         """
         client = self._require_open()
         if len(position) != 2 or not all(math.isfinite(v) for v in (*position, heading)):
             raise ValueError(f"position: expected finite (x, y) and heading, got {position!r}, {heading!r}")
+        if isinstance(spec, ArticulatedSpec):
+            name, k = spec.name, 1
+            while name in self._crowd.index or name in self.articulated:
+                k += 1
+                name = f"{spec.name}-{k}"
+            return self.articulated.add(name, spec, (float(position[0]), float(position[1])), float(heading))
         if intent not in INTENTS:
             raise ValueError(f"intent: expected one of {', '.join(INTENTS)}, got {intent!r}")
         path = np.asarray(spec.waypoints if waypoints is None else waypoints, dtype=np.float64).reshape(-1, 2)
         if not np.isfinite(path).all():
             raise ValueError(f"waypoints: expected finite (x, y) pairs, got {waypoints!r}")
         name, k = spec.name, 1
-        while name in self._crowd.index:
+        while name in self._crowd.index or name in self.articulated:
             k += 1
             name = f"{spec.name}-{k}"
         shape_key = tuple(getattr(spec, f) for f in _SHAPE_FIELDS)
@@ -141,12 +155,41 @@ class World:
         self._by_body[body] = name
         return name
 
+    def set_intent_all(self, intent: str | None) -> None:
+        """Every character follows ``intent`` instead of its own (pushes and falls still come first);
+        ``None``: each follows the intent it was added with again."""
+        crowd = self._crowd
+        if intent is None:
+            if self._own_intents is not None:
+                crowd.base_intent[:len(self._own_intents)] = self._own_intents
+                self._own_intents = None
+            return
+        if intent not in INTENTS:
+            raise ValueError(f"intent: expected one of {', '.join(INTENTS)} or None, got {intent!r}")
+        if self._own_intents is None:
+            self._own_intents = crowd.base_intent.copy()
+        crowd.base_intent[:] = INTENTS.index(intent)
+
+    def terrain(self, config: TerrainConfig) -> Quadrupeds:
+        """The cube terrain (made on first call, with its pybullet twin) and its quadrupeds (``add``)."""
+        if self.quadrupeds is None:
+            self.quadrupeds = Quadrupeds(self._require_open(), config)
+        return self.quadrupeds
+
     def strike(self, name: str, force: Vec3, duration: float, at: Vec3) -> None:
         """Push character ``name`` with the world-frame ``force`` (N) for ``duration`` s at the point ``at``
         (its body frame, metres from the centre of mass: x forward, y left, z up; ``sim.body.figure_point``).
 
-        Reported as a ``ContactEvent`` of person ``PAD_PERSON`` when it ends, like a pad's.
+        Reported as a ``ContactEvent`` of person ``PAD_PERSON`` when it ends, like a pad's (not for an
+        articulated character: its push acts on the link nearest ``at``, and makes it stagger).
         """
+        if name in self.articulated:
+            cleaned = clean_push(force, duration, self.config)
+            if cleaned is None or len(at) != 3 or not all(math.isfinite(v) and abs(v) <= _REACH_M for v in at):
+                self._counts["rejected_inputs"] += 1
+                return
+            self.articulated.strike(name, cleaned[0], cleaned[1], at)
+            return
         row = self._crowd.index[name]
         push = clean_push(force, duration, self.config)
         if push is None or len(at) != 3 or not all(math.isfinite(v) and abs(v) <= _REACH_M for v in at):
@@ -175,6 +218,7 @@ class World:
             n = self.config.max_catchup_ticks
             self._pending -= dropped
         self._crowd.contact_force[:] = 0.0
+        self.articulated.clear_forces()
         events: list[ContactEvent] = []
         changes: list[StateChange] = []
         for _ in range(n):
@@ -243,6 +287,8 @@ class World:
         if len(crowd):
             self._think(t0, contactors, changes)
         self._pool.place(contactors)
+        if self.quadrupeds is not None:  # procedural legs, kinematic bodies: posed before the physics
+            self.quadrupeds.tick(t0, cfg.control_dt, contactors, crowd.pos[:, :2], crowd.names)
         touched = {push.row for push in self._pushes}  # every queued push acts in this tick
         pad_forces = tick_forces(self._pushes, crowd, cfg.control_dt, cfg.max_impulse_force_n)
         dt = cfg.physics_dt
@@ -250,6 +296,8 @@ class World:
         for k in range(self._n_sub):
             for body, force, at in pad_forces:
                 p.applyExternalForce(body, -1, force, at, p.WORLD_FRAME, physicsClientId=client)
+            if self.articulated.characters:
+                self.articulated.before_physics_step(dt)
             p.stepSimulation(physicsClientId=client)
             if self._pool.active:
                 t_sub = t0 + (k + 1) * dt
@@ -258,8 +306,14 @@ class World:
                     row = crowd.index[name]
                     crowd.contact_force[row] = max(crowd.contact_force[row], f)
                     touched.add(row)
+                if self.articulated.characters:
+                    for (name, person), f in self._pool.read_forces(self.articulated.bodies).items():
+                        self._episodes.add(t_sub, name, person, f, dt)
+                        self.articulated.contact_force(name, f)
         self.physics_wall_s += time.perf_counter() - start
         self._ticks += 1
+        if self.articulated.characters:
+            self.articulated.after_tick(self.t, cfg.control_dt, changes)
         if touched:  # pushed during this tick (a person's contact, a pad, a strike): it may pivot
             crowd.pushed_at[list(touched)] = t0
         crowd.sense(*read_states(client, crowd.bodies), cfg.control_dt, cfg.gravity)
@@ -268,14 +322,21 @@ class World:
         fr = crowd.frames
         crowd.d_front += (crowd.vel[:, 0] * fr.cos_h + crowd.vel[:, 1] * fr.sin_h) * cfg.control_dt
         crowd.d_side += (crowd.vel[:, 0] * fr.sin_h - crowd.vel[:, 1] * fr.cos_h) * cfg.control_dt
-        for ev in self._episodes.close(self.t, lambda n: float(crowd.cols.push_threshold_ns[crowd.index[n]])):
+        for ev in self._episodes.close(self.t, self._push_threshold):
             events.append(ev)
             self._notice(ev, contactors)
+            if ev.character in self.articulated:
+                self.articulated.notice(ev)
         self._pushes, done = finished(self._pushes, crowd)
         for push, ev in done:
             events.append(ev)
             if ev.push:
                 notice_push(crowd, push.row, self.t, (push.force[0], push.force[1]))
+
+    def _push_threshold(self, name: str) -> float:
+        if name in self.articulated:
+            return self.articulated.threshold(name)
+        return float(self._crowd.cols.push_threshold_ns[self._crowd.index[name]])
 
     def _think(self, t0: float, contactors: tuple[SafeContactor, ...], changes: list[StateChange]) -> None:
         """AI, state machine and control of every character; writes the control impulses."""
@@ -293,7 +354,7 @@ class World:
         load = crowd.load = crowd.balance_load()
         if not quiet(crowd, load):
             for row, before, after in advance(crowd, readings(crowd, t0, load), t0):
-                self._on_change(row, before, after, t0)
+                enter_state(client, crowd, row, before, after, t0, cfg.floor_friction)
                 changes.append(StateChange(t=t0, character=crowd.names[row], before=STATES[before],
                                            after=STATES[after]))
             up = crowd.upright()
@@ -309,22 +370,6 @@ class World:
             bodies = [crowd.bodies[i] for i in rows.tolist()]
             write_velocities(client, bodies, crowd.vel[rows] + imp.dv[rows], crowd.ang[rows] + imp.dw[rows])
         crowd.vz_after = crowd.vel[:, 2] + imp.dv[:, 2]
-
-    def _on_change(self, row: int, before: int, after: int, t: float) -> None:
-        crowd = self._crowd
-        mu = 0.0 if after <= STAGGER else self.config.floor_friction
-        if crowd.friction_now[row] != mu:
-            set_friction(self._require_open(), crowd.bodies[row], mu)
-            crowd.friction_now[row] = mu
-        if after == STAND_UP:
-            crowd.stand_up_start[row] = crowd.frames.tilt[row]
-        elif after == FALL and math.isnan(crowd.fell_at[row]):
-            crowd.fell_at[row] = t
-        elif after == WALK:
-            crowd.heading_goal[row] = crowd.frames.heading[row]
-            if before == STAND_UP:
-                on_stood_up(crowd, row, t)
-            crowd.fell_at[row] = math.nan
 
     def _notice(self, ev: ContactEvent, contactors: tuple[SafeContactor, ...]) -> None:
         if not ev.push or ev.character not in self._crowd.index:
@@ -346,14 +391,7 @@ class World:
 
     def _limit_speeds(self) -> None:
         """Slow any body beyond the speed or spin limits (and count it): nothing runs away for ever."""
-        rows = too_fast(self._crowd, self.config)
-        if rows.size:
-            self._counts["slowed_characters"] += int(rows.size)
-            crowd = self._crowd
-            finite = rows[np.isfinite(crowd.vel[rows]).all(axis=1) & np.isfinite(crowd.ang[rows]).all(axis=1)]
-            if finite.size:  # (non-finite ones are put back upright by _recover)
-                write_velocities(self._require_open(), [crowd.bodies[i] for i in finite.tolist()],
-                                 crowd.vel[finite], crowd.ang[finite])
+        self._counts["slowed_characters"] += slow_down(self._require_open(), self._crowd, self.config)
 
     def _recover(self, changes: list[StateChange]) -> None:
         """Stand up, on the stage, every character that is lost, non-finite or stuck on the ground."""
@@ -361,24 +399,16 @@ class World:
         for row, lost in lost_characters(crowd, self.config, t):
             self._counts["recovered_characters"] += 1
             self._episodes.forget(crowd.names[row])
-            before = int(crowd.state[row])
             near = None if lost else (float(crowd.pos[row, 0]), float(crowd.pos[row, 1]))
             spot = free_spot(crowd, row, self._stage, self._rng, near)
-            heading = float(crowd.frames.heading[row]) if np.isfinite(crowd.quat[row]).all() else 0.0
-            pos = (spot[0], spot[1], float(crowd.cols.com_height[row]) + 0.002)
-            orn = yaw_quaternion(heading)
-            reset_body(self._require_open(), crowd.bodies[row], pos, orn)
-            set_friction(self._require_open(), crowd.bodies[row], 0.0)
-            crowd.friction_now[row] = 0.0
-            crowd.state[row], crowd.entered[row], crowd.since[row], crowd.face_up[row] = WALK, t, math.nan, -1
-            crowd.not_upright_since[row] = crowd.fell_at[row] = math.nan
-            crowd.heading_goal[row] = heading
-            self._place_row(row, pos, orn)
+            before = stand_again(self._require_open(), crowd, row, spot, t, self.config.gravity)
             if before != WALK:
                 changes.append(StateChange(t=t, character=crowd.names[row], before=STATES[before],
                                            after=STATES[WALK]))
 
     def _snapshot(self, events: tuple[ContactEvent, ...], changes: tuple[StateChange, ...],
                   dropped: float) -> WorldSnapshot:
-        return WorldSnapshot(t=self.t, steps=self._ticks * self._n_sub, characters=snapshots(self._crowd),
+        extra = self.quadrupeds.snapshots() if self.quadrupeds is not None else ()
+        extra += self.articulated.snapshots()
+        return WorldSnapshot(t=self.t, steps=self._ticks * self._n_sub, characters=snapshots(self._crowd) + extra,
                              contacts=events, changes=changes, dropped_time=dropped)
