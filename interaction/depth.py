@@ -5,20 +5,31 @@ intrinsics → stage metres through the :class:`DepthCalibration` (floor at z = 
 stage volume and lifted off the floor by ``floor_clearance_m``. The points are binned on a
 top-down floor grid; cells that were occupied while the first ``learn_frames`` frames were
 learned (furniture) are left out; connected cells holding something taller than
-``min_height_m`` are people, tracked with stable ids by nearest centroid
-(:class:`interaction.people.PeopleTracker`); only points higher than ``body_clearance_m`` find
-people (the floor's stereo noise stays below it), the lower ones are given to the person whose
-footprint they are in, for the feet. Each person gives a head (the top), hands (of the points out
-of the torso's reach between ``hand_band_low`` of the height and the head, the farthest from the
-shoulders; a hand near the body is not told from it and gives none), feet (the low points split in
-two) and a coarse hull of four stacked "body" spheres as wide as their band of the body.
+``min_height_m`` are people (a blob of two people close together is split by 2-means), tracked
+with stable ids (:class:`interaction.people.PeopleTracker`: nearest to where each is predicted;
+someone hidden for a while is found again within twice ``match_distance_m``). Only points higher
+than ``body_clearance_m`` find people (the floor's stereo noise stays below it); the other points
+within a cell or two of a person's cells (feet, an arm's sparse end) are given to that person.
 
-Latency: a contactor's position is the frame's own measurement (no filtering, no lag); its
-velocity is an alpha-beta filter per track (α = 0.6, β = 0.4: computed step response to a sudden
-change of velocity: 40 % of it on the first frame, 80 % on the second, 104 % on the third, at most
-12 % overshoot), which follows a constant velocity with no lag. At the OAK's 30 fps most of a shove
-is felt within ~2 frames (≈ 67 ms) after it shows in the depth; at 15 fps twice that. Processing
-itself (frame in → contactors out) takes ~5–6 ms at 640×400 on this machine.
+Each person gives a head (the top), a coarse hull of four stacked "body" spheres as wide as their
+band of the body, and hands and feet (:mod:`interaction.depth_parts`): *found* on the sampled
+points, *measured* on every pixel of the full image near them, moved from the surface seen back to
+the middle of the part. A hand is only reported when it is an arm's length out from its shoulder
+and clear of the torso (and the head) and of the legs; feet are the points low over the floor under the
+shins. Hands and feet are followed by :class:`interaction.limb_tracks.LimbTracker` (reported from
+their second frame on; velocity claimed only when steady).
+
+People: ``people`` counts those seen plus those hidden: someone seen in 5 frames or more who
+vanished less than ``hidden_memory_s`` ago next to (``hidden_near_m``) someone still seen is
+behind or merged with them, and still counted (with no contactors of their own).
+
+Latency: a contactor's position is the frame's own measurement (no filtering, no lag). A hand's
+or foot's velocity is the frame-to-frame one (half a frame behind), claimed from its third frame;
+the head's and the hull's are an alpha-beta filter per track (α = 0.6, β = 0.4: 40 % of a sudden
+change of velocity on the first frame, 80 % on the second, 104 % on the third, at most 12 %
+overshoot), which follows a constant velocity with no lag. At the OAK's 30 fps most of a shove is
+felt within ~2 frames (≈ 67 ms) after it shows in the depth; at 15 fps twice that. Processing
+itself (frame in → contactors out) takes ~3–5 ms at 640×400 on this machine.
 """
 
 from __future__ import annotations
@@ -30,6 +41,8 @@ import cv2
 import numpy as np
 
 from interaction.depth_calibration import DepthCalibration
+from interaction.depth_parts import FineDepth, find_feet, find_hands
+from interaction.limb_tracks import LimbTracker
 from interaction.people import PeopleTracker
 from interaction.types import BodyObservation, Contactor
 from sensors.base import DepthImage, Frame
@@ -58,13 +71,22 @@ class DepthObserverConfig:
     max_people: int = 8
     side_by_side_m: float = 0.4  # a blob whose two halves' middles are this far apart is two people
     match_distance_m: float = 0.6  # a person moves less than this between frames
-    track_memory_frames: int = 8
+    track_memory_frames: int = 30
+    hidden_memory_s: float = 1.0  # a person unseen this long, near someone seen, is still counted (hidden)
+    hidden_near_m: float = 0.7
     learn_frames: int = 5  # first frames: what is on the stage then is furniture
     hand_band_low: float = 0.5  # hands are looked for above this fraction of the person's height
+    min_arm_reach: float = 0.27  # … this far from the shoulders at least (a fraction of the height)
     min_hand_reach_m: float = 0.25  # a hand is this far out from the torso's axis (nearer: not told from it)
-    surface_inset_m: float = 0.04  # extremities: from the surface seen back toward the joint
     alpha: float = 0.6  # the velocity filter's gains
     beta: float = 0.4
+    limb_gate_m: float = 0.3  # a hand (foot) moves less than this from where its track predicts it
+    limb_steady_m: float = 0.1  # … and its velocity is trusted after it stays this close for:
+    limb_steady_frames: int = 3
+    limb_consistent_deg: float = 15.0  # … and claimed when its last two steps turn less than this
+    limb_min_speed: float = 0.5  # … and are faster than this (m/s)
+    limb_confirm_frames: int = 2  # a hand (foot) is reported once found in this many frames in a row
+    limb_memory_frames: int = 3  # a track not found for longer is forgotten
 
     def __post_init__(self) -> None:
         if not isinstance(self.work_width, int) or not 16 <= self.work_width <= 4096:
@@ -78,20 +100,29 @@ class DepthObserverConfig:
         _check("body_clearance_m", self.body_clearance_m, 0.0, 1.0)
         _check("cell_m", self.cell_m, 0.01, 0.5)
         _check("min_height_m", self.min_height_m, 0.1, 3.0)
-        for name, hi in (("min_points", 100000), ("max_people", 64), ("track_memory_frames", 1000), ("learn_frames", 1000)):
+        for name, hi in (("min_points", 100000), ("max_people", 64), ("track_memory_frames", 1000), ("learn_frames", 1000),
+                         ("limb_steady_frames", 100), ("limb_confirm_frames", 100), ("limb_memory_frames", 1000)):
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or not 0 <= v <= hi:
                 raise ValueError(f"{name}: expected a whole number 0..{hi}, got {v!r}")
         _check("side_by_side_m", self.side_by_side_m, 0.2, 3.0)
         _check("match_distance_m", self.match_distance_m, 0.01, 10.0)
+        _check("hidden_memory_s", self.hidden_memory_s, 0.0, 60.0)
+        _check("hidden_near_m", self.hidden_near_m, 0.0, 10.0)
         _check("hand_band_low", self.hand_band_low, 0.0, 0.9)
+        _check("min_arm_reach", self.min_arm_reach, 0.0, 1.0)
         _check("min_hand_reach_m", self.min_hand_reach_m, 0.0, 1.0)
-        _check("surface_inset_m", self.surface_inset_m, 0.0, 0.3)
         _check("alpha", self.alpha, 0.01, 1.0)
         _check("beta", self.beta, 0.0, 2.0)
+        _check("limb_gate_m", self.limb_gate_m, 0.01, 5.0)
+        _check("limb_steady_m", self.limb_steady_m, 0.0, 5.0)
+        _check("limb_consistent_deg", self.limb_consistent_deg, 0.0, 180.0)
+        _check("limb_min_speed", self.limb_min_speed, 0.0, 10.0)
 
 
 _KERNEL5 = np.ones((5, 5), np.uint8)
+_HIDDEN_AFTER_FRAMES = 5  # only a person seen in this many frames is counted when hidden
+_LIMBS = {"hand": 0.07, "foot": 0.08}  # the parts followed by LimbTracker, and their contactors' radii
 
 
 @dataclass
@@ -117,6 +148,13 @@ class DepthObserver:
         self._tracker = PeopleTracker(cfg.match_distance_m, cfg.track_memory_frames)
         self._tracks: dict[tuple[int, str], _Track] = {}
         self._points: np.ndarray = np.zeros((0, 3))
+        self._fine = FineDepth(calibration)
+        self._seen_at: dict[int, float] = {}  # person → when last seen
+        self._seen_frames: dict[int, int] = {}  # person → in how many frames
+        self._limbs = LimbTracker(gate_m=cfg.limb_gate_m, steady_m=cfg.limb_steady_m,
+                                  confirm_frames=cfg.limb_confirm_frames, steady_frames=cfg.limb_steady_frames,
+                                  memory_frames=cfg.limb_memory_frames, consistent_deg=cfg.limb_consistent_deg,
+                                  min_speed=cfg.limb_min_speed)
 
     @property
     def config(self) -> DepthObserverConfig:
@@ -141,7 +179,10 @@ class DepthObserver:
         self._static_count[:] = 0
         self._static = None
         self._tracker.clear()
+        self._seen_at.clear()
+        self._seen_frames.clear()
         self._tracks.clear()
+        self._limbs.clear()
 
     # ------------------------------------------------------------ per frame
 
@@ -153,10 +194,11 @@ class DepthObserver:
                              f"{frame.kind} payload; expected a depth image")
         cfg = self._cfg
         pts, cell = self._stage_points(p)
+        self._fine.set_frame(p)
         self._points = pts
         rows, cols = self._grid
         raised = pts[:, 2] > cfg.body_clearance_m  # clear of the floor's noise
-        occupied = np.bincount(cell[raised], minlength=rows * cols).reshape(rows, cols) >= 2
+        occupied = np.bincount(cell[raised], minlength=rows * cols).reshape(rows, cols) >= 1
         if self.learning:
             self._static_count += occupied
             self._learned += 1
@@ -171,7 +213,8 @@ class DepthObserver:
         n, labels = cv2.connectedComponents(grid, connectivity=8)
         # low points (feet) go to the person whose footprint, grown by a cell or two, they are in
         grown = cv2.dilate(labels.astype(np.uint16), _KERNEL5)
-        label = np.where(raised, labels.reshape(-1)[cell], grown.reshape(-1)[cell])
+        own = labels.reshape(-1)[cell]
+        label = np.where(raised & (own > 0), own, grown.reshape(-1)[cell])  # an arm's sparse end: to its body
         order = np.argsort(label, kind="stable")
         bounds = np.searchsorted(label[order], np.arange(n + 1))
         people: list[np.ndarray] = []
@@ -183,19 +226,49 @@ class DepthObserver:
         people = people[: cfg.max_people]
         centres = [(float(q[:, 0].mean()), float(q[:, 1].mean())) for q in people]
         ids = self._tracker.assign(centres)
+        hidden = self._hidden_people(ids, centres, frame.t)
         contactors: list[Contactor] = []
         seen: set[tuple[int, str]] = set()
         for pid, q in sorted(zip(ids, people, strict=True), key=lambda x: x[0]):
-            for part, slot, pos, radius in self._slotted(pid, self._body(q)):
+            born = pid in self._tracker.born
+            found = self._body(q)
+            for part, slot, pos, radius in found:
+                if part in _LIMBS:
+                    continue
                 key = (pid, slot)
                 seen.add(key)
-                vel = self._velocity(key, pos, frame.t, pid in self._tracker.born)
+                vel = self._velocity(key, pos, frame.t, born)
                 contactors.append(Contactor(pid, part, _vec(pos), _vec(vel), radius))
+            for part, radius in _LIMBS.items():
+                for _, pos, vel in self._limbs.update(pid, part, [f[2] for f in found if f[0] == part], frame.t, born):
+                    contactors.append(Contactor(pid, part, _vec(pos), _vec(vel), radius))
         for key in [k for k in self._tracks if k not in seen]:
             del self._tracks[key]
-        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(people))
+        self._limbs.forget_people(set(ids))
+        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(people) + hidden)
 
     # ------------------------------------------------------------ internals
+
+    def _hidden_people(self, ids: list[int], centres: list[tuple[float, float]], t: float) -> int:
+        """People not seen in this frame but seen less than ``hidden_memory_s`` ago, whose predicted
+        place is within ``hidden_near_m`` of someone seen: hidden behind (or merged with) that one,
+        still on the stage (no contactors are made for them)."""
+        for pid in ids:
+            self._seen_at[pid] = t
+            self._seen_frames[pid] = self._seen_frames.get(pid, 0) + 1
+        cfg = self._cfg
+        count = 0
+        for pid, (place, unseen) in self._tracker.predicted().items():
+            if unseen == 0 or t - self._seen_at.get(pid, -math.inf) > cfg.hidden_memory_s:
+                continue
+            if self._seen_frames.get(pid, 0) < _HIDDEN_AFTER_FRAMES:
+                continue  # seen for a moment only: more likely a blob split in two than a person
+            if any(math.dist(place, c) <= cfg.hidden_near_m for c in centres):
+                count += 1
+        for pid in [p for p, seen in self._seen_at.items() if t - seen > cfg.hidden_memory_s + 1.0]:
+            del self._seen_at[pid]
+            self._seen_frames.pop(pid, None)
+        return count
 
     def _stage_points(self, p: DepthImage) -> tuple[np.ndarray, np.ndarray]:
         """Stage points (N, 3) of the sampled image's pixels inside the stage volume, and their floor-grid
@@ -241,59 +314,19 @@ class DepthObserver:
         for i in range(4):
             if count[i] >= 5:
                 out.append(("body", f"body{i}", np.array([centre[i, 0], centre[i, 1], mids[i]]), float(radius[i])))
-        # hands: the points farthest out from the torso's axis, between the hips and the shoulders
-        # (reaching at least min_hand_reach_m out), the second at least 0.3 m from the first
-        arm = q[(q[:, 2] > self._cfg.hand_band_low * top) & (q[:, 2] < top - 0.12)]
-        hands: list[np.ndarray] = []
-        if len(arm):
-            reach = np.linalg.norm(arm[:, :2] - axis, axis=1)
-            torso_r = float(np.sqrt(spread[2] / max(count[2], 1)))  # the chest band's RMS radius
-            out_of_torso = reach >= max(self._cfg.min_hand_reach_m, torso_r + 0.1)
-            if out_of_torso.any():
-                # of the points outside the torso, the farthest from the shoulders (along the arm)
-                shoulders = np.array([axis[0], axis[1], 0.82 * top])
-                along = np.where(out_of_torso, np.linalg.norm(arm - shoulders, axis=1), -1.0)
-                first = arm[int(np.argmax(along))]
-                hands.append(self._extremity(arm, first, axis))
-                other = out_of_torso & (np.linalg.norm(arm - first, axis=1) > 0.3)
-                if other.any():
-                    hands.append(self._extremity(arm, arm[int(np.argmax(np.where(other, along, -1.0)))], axis))
-        # feet: the low points, split in two along their widest direction
-        low = q[q[:, 2] < 0.2]
-        feet = _two_clusters(low) if len(low) >= 4 else []
+        torso_r = float(np.sqrt(spread[2] / max(count[2], 1)))  # the chest band's RMS radius
+        cfg = self._cfg
+        feet = find_feet(q, self._fine)
+        hands = find_hands(q, top, axis, torso_r, feet, self._fine, band_low=cfg.hand_band_low,
+                           min_reach=cfg.min_hand_reach_m, min_arm_reach=cfg.min_arm_reach)
         out.extend(("hand", "hand", h, 0.07) for h in hands)
         out.extend(("foot", "foot", f, 0.08) for f in feet)
-        return out
-
-    def _extremity(self, pts: np.ndarray, tip: np.ndarray, axis: np.ndarray) -> np.ndarray:
-        """The mean of the points within 8 cm of ``tip``, moved toward the body by the surface inset."""
-        near = pts[np.linalg.norm(pts - tip, axis=1) < 0.08]
-        centre = near.mean(axis=0)
-        out = np.asarray(self._inset(centre, self._cfg.surface_inset_m), dtype=np.float64)
-        radial = out[:2] - axis
-        norm = float(np.linalg.norm(radial))
-        if norm > 1e-6:
-            out[:2] -= radial / norm * min(self._cfg.surface_inset_m, norm)
         return out
 
     def _inset(self, point: np.ndarray, distance: float) -> np.ndarray:
         """A surface point moved ``distance`` away from the camera (toward the inside of the body)."""
         ray = point - self._cal.centre
         return np.asarray(point + ray / float(np.linalg.norm(ray)) * distance, dtype=np.float64)
-
-    def _slotted(self, person: int, found: list[tuple[str, str, np.ndarray, float]]
-                 ) -> list[tuple[str, str, np.ndarray, float]]:
-        """Hands (feet) given the slots ``hand0``/``hand1`` of the tracks they are nearest to, so that a
-        limb keeps its track (and its velocity) from frame to frame."""
-        out = [f for f in found if f[0] not in ("hand", "foot")]
-        for part in ("hand", "foot"):
-            mine = [f[2] for f in found if f[0] == part]
-            previous = [self._tracks.get((person, f"{part}{i}")) for i in range(2)]
-            radius = next((f[3] for f in found if f[0] == part), 0.0)
-            orders = [(0, 1), (1, 0)] if len(mine) == 2 else [(0,), (1,)] if len(mine) == 1 else [()]
-            best = min(orders, key=lambda order: _slot_cost(mine, order, previous))
-            out.extend((part, f"{part}{slot}", pos, radius) for pos, slot in zip(mine, best, strict=False))
-        return out
 
     def _velocity(self, key: tuple[int, str], pos: np.ndarray, t: float, born: bool) -> np.ndarray:
         """The alpha-beta filtered velocity of one contactor track (zero on its first frame)."""
@@ -310,58 +343,40 @@ class DepthObserver:
         return track.velocity
 
 
-def _slot_cost(found: list[np.ndarray], order: tuple[int, ...], previous: list[_Track | None]) -> float:
-    """How far the limbs found are from the tracks of the slots ``order`` gives them (0.5 m for a new one)."""
-    total = 0.0
-    for pos, slot in zip(found, order, strict=False):
-        track = previous[slot]
-        total += float(np.linalg.norm(track.position - pos)) if track is not None else 0.5
-    return total
-
-
 def _split_side_by_side(q: np.ndarray, separation: float, depth: int = 0) -> list[np.ndarray]:
     """A blob that is two people close together (side by side, or one behind the other): 2-means of
     its points above the knees (0.65 m) on the floor plane, started from the two points farthest
     apart, gives two halves, each with a fifth of those points or more, whose middles are at least
-    ``separation`` apart (one person's halves are ~0.2–0.3 m apart). Split again per half (up to 4)."""
+    ``separation`` apart (one person's halves are ~0.2–0.3 m apart), each standing on the floor (an
+    arm held out is no person). Split again per half (up to 4)."""
     upper = q[q[:, 2] > 0.65, :2]
     if depth >= 2 or len(upper) < 40:
         return [q]
-    sample = upper[:: max(1, len(upper) // 400)]
+    sample = upper[:: max(1, len(upper) // 200)]
+    if float(np.hypot(*np.ptp(sample, axis=0))) < separation:
+        return [q]  # two halves' middles lie within the points' box: no two of them that far apart
     a = sample[int(np.argmax(np.sum(np.square(sample - sample.mean(axis=0)), axis=1)))]
     b = sample[int(np.argmax(np.sum(np.square(sample - a), axis=1)))]
     near_a = np.ones(len(sample), dtype=bool)
+    total, n = sample.sum(axis=0), len(sample)
     for _ in range(6):
-        near_a = np.sum(np.square(sample - a), axis=1) < np.sum(np.square(sample - b), axis=1)
-        if near_a.all() or not near_a.any():
+        was = near_a
+        near_a = sample @ (b - a) < 0.5 * (float(b @ b) - float(a @ a))  # nearer a than b
+        k = int(np.count_nonzero(near_a))
+        if k == 0 or k == n:
             return [q]
-        a, b = sample[near_a].mean(axis=0), sample[~near_a].mean(axis=0)
+        sum_a = sample[near_a].sum(axis=0)
+        a, b = sum_a / k, (total - sum_a) / (n - k)
+        if np.array_equal(was, near_a):
+            break
     share = float(near_a.mean())
     if min(share, 1 - share) < 0.2 or float(np.linalg.norm(a - b)) < separation:
         return [q]
     side = np.sum(np.square(q[:, :2] - a), axis=1) < np.sum(np.square(q[:, :2] - b), axis=1)
+    for half in (q[side], q[~side]):
+        if np.count_nonzero(half[:, 2] < 0.5) < 5:
+            return [q]
     return [*_split_side_by_side(q[side], separation, depth + 1), *_split_side_by_side(q[~side], separation, depth + 1)]
-
-
-def _two_clusters(pts: np.ndarray) -> list[np.ndarray]:
-    """Two means of points split along their widest horizontal direction (one when they are close)."""
-    xy = pts[:, :2] - pts[:, :2].mean(axis=0)
-    cov = xy.T @ xy
-    angle = 0.5 * math.atan2(2 * cov[0, 1], cov[0, 0] - cov[1, 1])  # the widest direction
-    s = xy @ np.array([math.cos(angle), math.sin(angle)])
-    a, b = pts[s < 0], pts[s >= 0]
-    if len(a) < 2 or len(b) < 2:
-        return [pts.mean(axis=0)]
-    for _ in range(2):
-        ca, cb = a[:, :2].mean(axis=0), b[:, :2].mean(axis=0)
-        to_a = np.linalg.norm(pts[:, :2] - ca, axis=1) < np.linalg.norm(pts[:, :2] - cb, axis=1)
-        if to_a.all() or not to_a.any():
-            return [pts.mean(axis=0)]
-        a, b = pts[to_a], pts[~to_a]
-    ca, cb = a.mean(axis=0), b.mean(axis=0)
-    if np.linalg.norm(ca[:2] - cb[:2]) < 0.12:
-        return [pts.mean(axis=0)]
-    return [ca, cb]
 
 
 def _vec(v: np.ndarray) -> tuple[float, float, float]:

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-__all__ = ["Blob", "PeopleTracker", "find_blobs", "outline_points"]
+__all__ = ["Blob", "PeopleTracker", "find_blobs", "outline_points", "split_merged"]
 
 _FEET_BAND = 0.08  # feet are the lowest points within this fraction of the blob's height from its bottom
 
@@ -39,18 +39,53 @@ def find_blobs(mask: np.ndarray, min_area_px: float, max_count: int) -> list[Blo
     return blobs[:max_count]
 
 
-class PeopleTracker:
-    """Keeps a person's id from frame to frame: greedy nearest-centroid matching.
+def split_merged(blobs: list[Blob], predicted: list[tuple[float, float]], min_area_px: float) -> list[Blob]:
+    """Blobs that hold the predicted centroids of two or more people (who walked into each other) cut
+    between them: each column of the blob goes to the nearest predicted centroid (people stand side by
+    side or overlap in the image; the cut is upright, halfway between them). A blob whose parts would
+    be smaller than ``min_area_px`` is left whole."""
+    out: list[Blob] = []
+    contours = [b.contour.reshape(-1, 1, 2).astype(np.int32) for b in blobs]
+    # signed distance of every prediction to every outline (> 0 inside)
+    near = np.array([[cv2.pointPolygonTest(c, (float(p[0]), float(p[1])), True) for c in contours] for p in predicted])
+    for i, (blob, contour) in enumerate(zip(blobs, contours, strict=True)):
+        x, y, w, h = cv2.boundingRect(contour)
+        # a centroid may lie just outside a walker's outline (between the legs): 8 % of the height
+        mine = [k for k in range(len(predicted))
+                if near[k, i] >= -0.08 * h and (near[k, i] >= 0 or not (near[k] >= 0).any())]
+        inside = sorted(predicted[k][0] for k in mine)
+        if len(inside) < 2:
+            out.append(blob)
+            continue
+        mask = np.zeros((h, w), np.uint8)
+        cv2.drawContours(mask, [contour - np.array([x, y], np.int32)], -1, 255, cv2.FILLED)
+        owner = np.argmin(np.abs(np.arange(w, dtype=np.float64)[:, None] + x - np.array(inside)[None, :]), axis=1)
+        parts: list[Blob] = []
+        for k in range(len(inside)):
+            found = find_blobs(np.where(owner[None, :] == k, mask, 0).astype(np.uint8), min_area_px, 1)
+            parts.extend(Blob(b.contour + np.array([x, y]), b.area, (b.centroid[0] + x, b.centroid[1] + y))
+                         for b in found)
+        out.extend(parts if len(parts) >= 2 else [blob])
+    out.sort(key=lambda b: -b.area)
+    return out
 
-    A blob takes the id of the nearest remembered person within ``max_distance`` pixels (closest
-    pairs first); others get new ids (0, 1, 2, … never reused). A person unseen for more than
+
+class PeopleTracker:
+    """Keeps a person's id from frame to frame: greedy nearest matching to where each is predicted.
+
+    A person is predicted to keep the step it made last (per frame, halved each frame it is not
+    seen). A blob takes the id of the nearest predicted person within ``max_distance`` (closest pairs
+    first), then a blob left over takes the id of a person unseen in the last frame within twice that
+    (people hidden for a while reappear away from where they were predicted); others get new ids
+    (0, 1, 2, … never reused). A person unseen for more than
     ``memory_frames`` frames is forgotten.
     """
 
     def __init__(self, max_distance: float, memory_frames: int) -> None:
         self._max_distance = max_distance
         self._memory = memory_frames
-        self._tracks: dict[int, tuple[tuple[float, float], int]] = {}  # id → (centroid, frames unseen)
+        # id → (centroid, frames unseen, step per frame)
+        self._tracks: dict[int, tuple[tuple[float, float], int, tuple[float, float]]] = {}
         self._next_id = 0
         self._born: frozenset[int] = frozenset()
 
@@ -63,11 +98,16 @@ class PeopleTracker:
         self._tracks.clear()
         self._born = frozenset()
 
+    def predicted(self) -> dict[int, tuple[tuple[float, float], int]]:
+        """Every remembered person's predicted centroid for the next frame, and frames unseen."""
+        return {tid: (_ahead(c, unseen, step), unseen) for tid, (c, unseen, step) in self._tracks.items()}
+
     def assign(self, centroids: list[tuple[float, float]]) -> list[int]:
+        ahead = {tid: _ahead(c, unseen, step) for tid, (c, unseen, step) in self._tracks.items()}
         pairs = sorted(
-            (math.dist(c, tc), bi, tid)
+            (math.dist(c, ahead[tid]), bi, tid)
             for bi, c in enumerate(centroids)
-            for tid, (tc, _) in self._tracks.items()
+            for tid in self._tracks
         )
         ids: list[int | None] = [None] * len(centroids)
         taken: set[int] = set()
@@ -75,6 +115,14 @@ class PeopleTracker:
             if d > self._max_distance:
                 break
             if ids[bi] is None and tid not in taken:
+                ids[bi] = tid
+                taken.add(tid)
+        # a person that was out of sight (hidden behind, or merged with, someone) comes back farther
+        # from where it was predicted: blobs left over take such ids within twice the distance
+        for d, bi, tid in pairs:
+            if d > 2 * self._max_distance:
+                break
+            if ids[bi] is None and tid not in taken and self._tracks[tid][1] > 0:
                 ids[bi] = tid
                 taken.add(tid)
         out: list[int] = []
@@ -86,13 +134,25 @@ class PeopleTracker:
                 born.add(i)
             out.append(i)
         self._born = frozenset(born)
-        seen = dict(zip(out, centroids, strict=True))
-        tracks = {tid: (c, 0) for tid, c in seen.items()}
-        for tid, (c, unseen) in self._tracks.items():
-            if tid not in seen and unseen < self._memory:
-                tracks[tid] = (c, unseen + 1)
+        tracks: dict[int, tuple[tuple[float, float], int, tuple[float, float]]] = {}
+        for tid, c in zip(out, centroids, strict=True):
+            step = (0.0, 0.0)
+            if tid in self._tracks:
+                (px, py), unseen, _ = self._tracks[tid]
+                step = ((c[0] - px) / (unseen + 1), (c[1] - py) / (unseen + 1))
+            tracks[tid] = (c, 0, step)
+        for tid, (c, unseen, step) in self._tracks.items():
+            if tid not in tracks and unseen < self._memory:
+                tracks[tid] = (c, unseen + 1, step)
         self._tracks = tracks
         return out
+
+
+def _ahead(c: tuple[float, float], unseen: int, step: tuple[float, float]) -> tuple[float, float]:
+    """Where a person last at ``c``, moving ``step`` per frame, is expected the next frame after
+    ``unseen`` frames unseen (the step fades by half each frame unseen: people stop and turn)."""
+    k = 2.0 - 0.5**unseen  # 1 + 1/2 + … + 1/2^unseen: the fading steps (1 when just seen)
+    return (c[0] + step[0] * k, c[1] + step[1] * k)
 
 
 def outline_points(
@@ -115,7 +175,7 @@ def outline_points(
     parts = ["outline"] * len(idx)
 
     u, v = pts[:, 0], pts[:, 1]
-    extremes = [("head", v == v.min(), 0), ("hand", u == u.min(), 1), ("hand", u == u.max(), 1)]
+    extremes = [("head", v == v.min(), 0), *(("hand", sel, 1) for sel in _hands(pts))]
     band = v >= v.max() - max(2, int(_FEET_BAND * int(v.max() - v.min())))
     cu = float(u[band].mean())
     for side in (band & (u < cu), band & (u >= cu)):
@@ -128,6 +188,46 @@ def outline_points(
     w, h = image_size
     inside = (uv[:, 0] > 0) & (uv[:, 0] < w - 1) & (uv[:, 1] > 0) & (uv[:, 1] < h - 1)
     return uv[inside], tuple(p for p, keep in zip(parts, inside.tolist(), strict=True) if keep)
+
+
+def _hands(pts: np.ndarray) -> list[np.ndarray]:
+    """Outline points of the hands (one selection per side, left then right): of the outline in the
+    top half of the blob (down to the hips: not the legs), the points out from the torso's column by more than half its width plus 6 % of the height; of
+    those, the one farthest from that side's shoulder, if it is a forearm's length from it (a quarter of
+    the height). An arm held against the body, or an elbow out with the hand in front of the body,
+    gives no hand on that side (the outline covers it)."""
+    u, v = pts[:, 0].astype(np.float64), pts[:, 1].astype(np.float64)
+    top, height = float(v.min()), float(v.max() - v.min())
+    if height < 8:
+        return []
+    rel = (v - top) / height
+    torso = (rel > 0.22) & (rel < 0.42)
+    if not torso.any():
+        return []
+    rows = np.round(v[torso]).astype(np.int64)
+    lo = np.full(rows.max() - rows.min() + 1, np.inf)
+    hi = np.full_like(lo, -np.inf)
+    np.minimum.at(lo, rows - rows.min(), u[torso])
+    np.maximum.at(hi, rows - rows.min(), u[torso])
+    ok = np.isfinite(lo)
+    middle, width = float(np.median((lo[ok] + hi[ok]) / 2)), float(np.median(hi[ok] - lo[ok]))
+    band = rel < 0.5
+    out = []
+    for side in (-1.0, 1.0):
+        shoulder = np.array([middle + side * 0.4 * width, top + 0.18 * height])
+        beyond = band & (side * (u - middle) > 0.5 * width + 0.06 * height)
+        if not beyond.any():
+            continue
+        idx = np.flatnonzero(beyond)  # a thigh or a knee has the leg's outline right under it, a hand not
+        du = np.abs(u[idx, None] - u[None, :]) < 0.03 * height
+        dv = v[None, :] - v[idx, None]
+        legs = np.count_nonzero(du & (dv > 0.08 * height) & (dv < 0.25 * height), axis=1) >= 2
+        beyond[idx[legs]] = False
+        reach = np.where(beyond, np.hypot(u - shoulder[0], v - shoulder[1]), -1.0)
+        if float(reach.max()) < 0.25 * height:
+            continue  # an elbow out, no forearm beyond it
+        out.append(reach == reach.max())
+    return out
 
 
 def _middle_of(pts: np.ndarray, sel: np.ndarray, axis: int) -> np.ndarray:

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from interaction.calibration import Calibration
-from interaction.people import Blob, PeopleTracker, find_blobs, outline_points
+from interaction.people import Blob, PeopleTracker, find_blobs, outline_points, split_merged
 from interaction.pose import Keypoints, PoseModel, PoseModelError, PoseTracker
 from interaction.pose_models import default_model_dir, find_models
 from interaction.silhouette import BackgroundModel
@@ -38,6 +38,7 @@ _DIS_PRESETS: dict[FlowPreset, int] = {
 }
 _RADIUS_PER_SPACING = 0.6  # derived radius: neighbouring outline contactors overlap a little
 _FLOW_MARGIN = 24  # work pixels of context around the people for the optical flow
+_SPLIT_UNSEEN_FRAMES = 5  # people unseen longer do not cut a blob in two
 
 
 class WebcamObserver:
@@ -154,6 +155,9 @@ class WebcamObserver:
         h, w = grey.shape
         mask = self._background.foreground(work, ignore=self._ignore_for_light())
         blobs = find_blobs(mask, cfg.min_blob_area * w * h, cfg.max_people)
+        if self._tracker is not None and blobs:  # people who walked into each other: cut where each was
+            recent = [c for c, unseen in self._tracker.predicted().values() if unseen <= _SPLIT_UNSEEN_FRAMES]
+            blobs = split_merged(blobs, recent, cfg.min_blob_area * w * h)[: cfg.max_people]
         self._background.refresh(work, someone_in_view=bool(blobs))
 
         people = np.zeros_like(mask)
