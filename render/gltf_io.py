@@ -31,6 +31,7 @@ from render.keyframe_import import Placement, add_animation
 from render.keyframes import KeyframeSet
 from render.skeletons import figure_for
 from sim.motion import quaternion as quat
+from sim.motion.gltf_file import save_gltf
 from sim.motion.mocap import JOINTS
 
 FPS = 30.0
@@ -96,15 +97,7 @@ def export_gltf(kset: KeyframeSet, path: Path) -> Path:
         scene=0, scenes=[g.Scene(nodes=[0])], nodes=nodes, animations=animations,
         accessors=accessors, bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))],
     )
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.suffix.lower() == ".glb":
-        doc.set_binary_blob(bytes(blob))
-        doc.save_binary(str(path))
-    else:
-        doc.buffers[0].uri = "data:application/octet-stream;base64," + base64.b64encode(bytes(blob)).decode()
-        doc.save_json(str(path))
-    return path
+    return save_gltf(doc, blob, path)
 
 
 def _read(doc: Any, index: int, path: Path) -> np.ndarray:

@@ -9,11 +9,9 @@ import ctypes
 import ctypes.util
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -103,20 +101,6 @@ class XClient:
         self.x11.XCloseDisplay(self.dpy)
 
 
-@pytest.fixture(scope="module")
-def display() -> Iterator[str]:
-    xvfb = shutil.which("Xvfb")
-    if xvfb is None:
-        pytest.skip("Xvfb is not installed (apt-get install xvfb)")
-    name = f":{120 + os.getpid() % 50}"
-    proc = subprocess.Popen([xvfb, name, "-screen", "0", "800x600x24"], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
-    time.sleep(1.0)
-    if proc.poll() is not None:
-        pytest.skip(f"Xvfb did not start on {name}")
-    yield name
-    proc.terminate()
-    proc.wait(timeout=10)
 
 
 def _child(display: str, mode: str) -> tuple[subprocess.Popen[str], dict[str, Any]]:

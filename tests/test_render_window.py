@@ -5,11 +5,8 @@ headless and window modes in one)."""
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
-import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -52,20 +49,6 @@ with Renderer(320, 180, headless=False, fullscreen=sys.argv[2] == "kiosk") as r:
 """
 
 
-@pytest.fixture(scope="module")
-def display() -> Iterator[str]:
-    xvfb = shutil.which("Xvfb")
-    if xvfb is None:
-        pytest.skip("Xvfb is not installed (apt-get install xvfb)")
-    name = f":{170 + os.getpid() % 50}"
-    proc = subprocess.Popen([xvfb, name, "-screen", "0", "800x600x24"], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
-    time.sleep(1.0)
-    if proc.poll() is not None:
-        pytest.skip(f"Xvfb did not start on {name}")
-    yield name
-    proc.terminate()
-    proc.wait(timeout=10)
 
 
 @pytest.mark.parametrize("mode", ["window", "kiosk"])

@@ -29,6 +29,7 @@ import numpy as np
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.motion import quaternion as quat
 from sim.motion.bvh import write_bvh
+from sim.motion.gltf_file import save_gltf
 from sim.snapshot import WorldSnapshot
 
 __all__ = ["ExportError", "LinkTrack", "LocalMotion", "STAGE_TO_Y_UP", "articulated_names", "infer_parents",
@@ -247,15 +248,7 @@ def write_track_gltf(track: LinkTrack, path: Path) -> Path:
         animations=[g.Animation(name=track.character, samplers=samplers, channels=channels)],
         accessors=accessors, bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))],
     )
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.suffix.lower() == ".glb":
-        doc.set_binary_blob(bytes(blob))
-        doc.save_binary(str(path))
-    else:
-        doc.buffers[0].uri = "data:application/octet-stream;base64," + base64.b64encode(bytes(blob)).decode()
-        doc.save_json(str(path))
-    return path
+    return save_gltf(doc, blob, path)
 
 
 def write_track(track: LinkTrack, path: Path, *, units: str = "cm", ends: Mapping[str, np.ndarray] | None = None) -> Path:
