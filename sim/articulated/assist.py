@@ -14,6 +14,8 @@ import math
 import numpy as np
 
 from sim.articulated import balance as bal
+from sim.articulated.spec import ArticulatedSpec
+from sim.snapshot import CharacterState
 
 ASSIST_KP = 1000.0  # N·m/rad, root orientation
 ASSIST_KD = 3.0  # N·m·s/rad: explicit damping on the light pelvis must stay small (30 vibrates at 240 Hz)
@@ -47,3 +49,28 @@ def speed_help(dv: np.ndarray, heading: float, limit: float) -> np.ndarray:
     f_fwd, f_right = -FORCE_KD * dv
     c, s = math.cos(heading), math.sin(heading)
     return bal.clamp_norm(np.array([c * f_fwd + s * f_right, s * f_fwd - c * f_right, 0.0]), limit)
+
+
+def root_help(s: ArticulatedSpec, state: CharacterState, walk_in: bool, feet: bool, desired: np.ndarray,
+              orn: np.ndarray, omega: np.ndarray, dd: np.ndarray, dv: np.ndarray, heading: float,
+              height: tuple[float, float, float]) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(world torque, world force) on the root for this state, or None for each that is off. ``walk_in``:
+    walking off from a stand (after a get-up), helped ``walk_in_assist`` times harder; ``feet``: the
+    skeleton has feet (placement help); ``height``: (clip root height, root height, root vertical speed)."""
+    torque: np.ndarray | None = None
+    force: np.ndarray | None = None
+    if state in (CharacterState.WALK, CharacterState.STAGGER):
+        boost = s.walk_in_assist if walk_in else 1.0
+        if s.assist_torque_max_nm > 0:
+            torque = orientation_help(desired, orn, omega, ASSIST_KP, s.assist_torque_max_nm * boost)
+        if feet and walk_in and s.walk_in_force_n > 0:  # up to the clip's speed
+            force = speed_help(dv, heading, s.walk_in_force_n)
+        elif s.assist_force_max_n > 0 and feet:
+            force = placement_help(dd, dv, heading, s.assist_force_max_n)
+    elif state == CharacterState.STAND_UP:
+        if s.getup_assist_torque_max_nm > 0:
+            torque = orientation_help(desired, orn, omega, GETUP_KP, s.getup_assist_torque_max_nm)
+        if s.getup_assist_force_max_n > 0:
+            z_des, z, vz = height
+            force = np.array([0.0, 0.0, lift_help(z_des, z, vz, s.getup_assist_force_max_n)])
+    return torque, force

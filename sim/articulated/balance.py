@@ -81,10 +81,12 @@ def placement_rotation(d_fwd: float, d_right: float, v_fwd: float, v_right: floa
     return quat_exp(RIGHT * a_sag - FORWARD * a_cor)
 
 
-def ankle_rotation(d_fwd: float, d_right: float, gain: float, limit: float = 0.3) -> np.ndarray:
-    """The turn (shank frame) of the stance foot that moves the centre of pressure toward the body."""
+def ankle_rotation(d_fwd: float, d_right: float, gain: float, gain_coronal: float | None = None,
+                   limit: float = 0.3) -> np.ndarray:
+    """The turn (shank frame) of the stance foot that moves the centre of pressure toward the body
+    (``gain_coronal`` None: ``gain`` both ways)."""
     a_sag = float(np.clip(gain * d_fwd, -limit, limit))
-    a_cor = float(np.clip(gain * d_right, -limit, limit))
+    a_cor = float(np.clip((gain if gain_coronal is None else gain_coronal) * d_right, -limit, limit))
     return quat_exp(-RIGHT * a_sag + FORWARD * a_cor)
 
 

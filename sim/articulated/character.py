@@ -11,7 +11,9 @@ after each ``stepSimulation``). The state machine (``sim.snapshot.CharacterState
 The walking clip loops; each pass is re-anchored at the character's current position and heading (the
 loop continues from where the character is, no snapping back). Joint targets blend over ``BLEND_S`` from
 the pose the character is in whenever a new clip starts; after a get-up the walk starts at the frame of
-the supporting foot's stance with the feet closest together. Balance: ``sim.articulated.balance``;
+the supporting foot's stance with the feet closest together, blending over only ``spec.walk_in_blend_s``
+(lingering in the get-up's crouch made it fall again), with ``walk_in_assist`` × the pelvis torque limit for
+``walk_in_s``; foot placement ignores being slower than the clip beyond ``SLOW_MS``. Balance: ``sim.articulated.balance``;
 bounded root help: ``sim.articulated.assist``. Targets, balance and states update at ``spec.control_hz``
 (every physics step while limp, so joint limits are watched closely).
 """
@@ -42,6 +44,7 @@ BLEND_S = 0.4  # s: joint targets blend from the current pose when a clip starts
 YAW_SHARE = 0.2  # the torso control turns toward the clip's heading by this share of the error
 STOP_GAIN = 4.0  # limp joints beyond their limits are driven back at this many times their gains
 TURN_RATE = 0.6  # rad/s: how fast steering turns the clip's frame (1.0 makes it fall: measured)
+SLOW_MS = 0.1  # m/s: foot placement ignores being slower than the clip beyond this (measured: 0 and 0.3 worse)
 _REACH_M = 1.0  # m: capture-point distance from the clip's place over the stance foot at balance load 1
 _G = 9.81
 
@@ -199,7 +202,7 @@ class ArticulatedCharacter:
             self.ref = self.walk
             self._reanchor_walk()
             on_left = self._support_left()
-            self._start_clip(BLEND_S, self.walk.feet_together_t[1 if on_left else 0])
+            self._start_clip(self.spec.walk_in_blend_s, self.walk.feet_together_t[1 if on_left else 0])
             self._walk_started = self.t
 
     def _getup(self, face_up: bool) -> MotionReference:
@@ -252,6 +255,12 @@ class ArticulatedCharacter:
         for link, force, at in self._forces:
             p.applyExternalForce(self.body, link, force, at, p.WORLD_FRAME, physicsClientId=c)
         self._apply_pushes(dt)
+
+    def _walk_in(self) -> float:
+        """How far into walking off from a stand (0 just started … 1 done, or not walking off)."""
+        if self._walk_started < 0.0 or self.spec.walk_in_s <= 0.0:
+            return 1.0
+        return min(1.0, (self.t - self._walk_started) / self.spec.walk_in_s)
 
     def _update(self, dt: float) -> None:
         if self.ref.clip.loop and self._clip_t >= self.ref.duration:
@@ -337,7 +346,10 @@ class ArticulatedCharacter:
         self._dd, self._dv, self._heading = dd, dv, heading
         targets = r.rots.copy()
         k_sw = self._drv_pos[swing_hip]
-        place = bal.placement_rotation(dd[0], dd[1], dv[0], dv[1], s.cd_sagittal, s.cv_sagittal,
+        # slower than the clip (walking off from a stand) by more than a deficit of SLOW_MS: shorter steps
+        # would only slow it more, so placement ignores the rest
+        v_sag = max(float(dv[0]), -SLOW_MS)
+        place = bal.placement_rotation(dd[0], dd[1], v_sag, dv[1], s.cd_sagittal, s.cv_sagittal,
                                        s.cd_coronal, s.cv_coronal)
         # swing thigh in the world: through the desired pelvis frame, whatever the actual pelvis does
         world = q1.mul(desired_root, q1.mul(place, r.rots[k_sw]))
@@ -346,43 +358,24 @@ class ArticulatedCharacter:
         k_st = self._drv_pos[stance_hip]
         scale[k_st] = s.stance_hip_gain
         k_an = self._drv_pos[stance_foot]
-        if s.ankle_gain > 0:
-            targets[k_an] = q1.mul(bal.ankle_rotation(dd[0], dd[1], s.ankle_gain), r.rots[k_an])
+        if s.ankle_gain > 0 or s.ankle_gain_coronal > 0:
+            turn = bal.ankle_rotation(dd[0], dd[1], s.ankle_gain, s.ankle_gain_coronal)
+            targets[k_an] = q1.mul(turn, r.rots[k_an])
             self._modified.append(k_an)
         torso = bal.orientation_torque(desired_root, orn, omega, s.torso_kp, s.torso_kd)
         return targets, bal.clamp_norm(torso, s.gains("hip")[2])
 
     def _assist(self, r: ReferencePose, root: np.ndarray, orn: np.ndarray, omega: np.ndarray,
                 desired_root: np.ndarray) -> None:
-        s = self.spec
-        at = self.readout.base_com()
-        torque: np.ndarray | None = None
-        force: np.ndarray | None = None
-        if self.state in (CharacterState.WALK, CharacterState.STAGGER):
-            # walking off from a stand (after getting up) is helped harder for walk_in_s
-            walk_in = self._walk_started >= 0.0 and self.t - self._walk_started < s.walk_in_s
-            boost = s.walk_in_assist if walk_in else 1.0
-            if s.assist_torque_max_nm > 0:
-                torque = assist.orientation_help(desired_root, orn, omega, assist.ASSIST_KP,
-                                                 s.assist_torque_max_nm * boost)
-            if self._feet is not None and walk_in and s.walk_in_force_n > 0:  # up to the clip's speed
-                force = assist.speed_help(self._dv, self._heading, s.walk_in_force_n)
-            elif s.assist_force_max_n > 0 and self._feet is not None:
-                force = assist.placement_help(self._dd, self._dv, self._heading, s.assist_force_max_n)
-        elif self.state == CharacterState.STAND_UP:
-            if s.getup_assist_torque_max_nm > 0:
-                torque = assist.orientation_help(desired_root, orn, omega, assist.GETUP_KP,
-                                                 s.getup_assist_torque_max_nm)
-            if s.getup_assist_force_max_n > 0:
-                vel, _ = self.readout.base_velocity()
-                z_des = float(q1.rot(self._up, r.root_pos)[2])
-                lift = assist.lift_help(z_des, float(root[2]), float(vel[2]), s.getup_assist_force_max_n)
-                force = np.array([0.0, 0.0, lift])
+        vel, _ = self.readout.base_velocity()
+        torque, force = assist.root_help(
+            self.spec, self.state, self._walk_in() < 1.0, self._feet is not None, desired_root, orn, omega,
+            self._dd, self._dv, self._heading, (float(q1.rot(self._up, r.root_pos)[2]), float(root[2]), float(vel[2])))
         if torque is not None:
             self._torques.append((-1, torque.tolist()))
             self.external_assist_peak_nm = max(self.external_assist_peak_nm, float(np.linalg.norm(torque)))
         if force is not None:
-            self._forces.append((-1, force.tolist(), at))
+            self._forces.append((-1, force.tolist(), self.readout.base_com()))
             self.external_assist_peak_n = max(self.external_assist_peak_n, float(np.linalg.norm(force)))
 
     def _apply_pushes(self, dt: float) -> None:

@@ -77,14 +77,17 @@ class ArticulatedSpec:
     torso_kp: float = 200.0  # N·m/rad: the stance hip keeps the pelvis at its world orientation
     torso_kd: float = 0.0
     stance_hip_gain: float = 1.0  # the stance hip's own PD is scaled by this (the torso torque does the rest)
-    ankle_gain: float = 0.0  # rad per m of COM offset: stance ankle strategy
+    ankle_gain: float = 0.0  # rad per m of root offset forward: stance ankle strategy (sagittal)
+    ankle_gain_coronal: float = 0.0  # rad per m sideways (0.15 and 0.3 both ways cut side pushes: measured)
     # bounded external help on the root (0 = none); switched off while falling and lying
     assist_torque_max_nm: float = 150.0  # walking: torque on the pelvis toward upright
     assist_force_max_n: float = 0.0  # walking: horizontal force on the pelvis toward the clip's place
-    walk_in_s: float = 1.5  # after getting up, walking off from a stand for this long: the torque assist
-    walk_in_assist: float = 3.0  # is this many times larger, and a horizontal force of at most
+    walk_in_s: float = 3.0  # after getting up, walking off from a stand for this long: the torque assist
+    walk_in_assist: float = 1.5  # is this many times larger, and a horizontal force of at most
     walk_in_force_n: float = 0.0  # this brings the root up to the clip's speed (0: off; it makes a walk
     # from a still pose work, but after a get-up it makes things worse — measured)
+    walk_in_blend_s: float = 0.05  # s: after a get-up the walk's targets blend from the get-up's last pose
+    # this long (0.4 and 1.0: it stays in the get-up's crouch and falls within ~2 s; 0.05: walks on: measured)
     getup_assist_force_max_n: float = 300.0  # standing up: vertical force toward the clip's root height
     getup_assist_torque_max_nm: float = 300.0  # standing up: torque toward the clip's root orientation
     # states
@@ -101,6 +104,7 @@ class ArticulatedSpec:
     getup_timeout_s: float = 8.0
     upright_tilt_deg: float = 20.0  # standing up is done when the pelvis is this upright and high
     upright_height: float = 0.72  # m, root joint
+    getup_grace_s: float = 1.2  # s after the get-up clip's last frame (holding it) to become upright, else fell
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
@@ -117,11 +121,11 @@ class ArticulatedSpec:
         gains = [f.name for f in fields(self) if f.name.startswith(("kp_", "kd_", "max_torque_"))]
         _positive(self, "height", "com_height", "control_hz", "gain_scale", *gains, "push_threshold_ns",
                   "stagger_load", "recover_load", "fall_tilt_deg", "fall_height", "ragdoll_gain", "still_speed",
-                  "lie_duration_s", "getup_timeout_s", "upright_tilt_deg", "upright_height")
+                  "lie_duration_s", "getup_timeout_s", "upright_tilt_deg", "upright_height", "getup_grace_s")
         _non_negative(self, "cd_sagittal", "cv_sagittal", "cd_coronal", "cv_coronal", "torso_kp", "torso_kd",
-                      "stance_hip_gain", "ankle_gain", "assist_torque_max_nm", "assist_force_max_n",
+                      "stance_hip_gain", "ankle_gain", "ankle_gain_coronal", "assist_torque_max_nm", "assist_force_max_n",
                       "getup_assist_force_max_n", "getup_assist_torque_max_nm", "walk_in_s", "walk_in_assist",
-                      "walk_in_force_n", "recover_hold_s", "still_hold_s")
+                      "walk_in_force_n", "walk_in_blend_s", "recover_hold_s", "still_hold_s")
         if not self.recover_load < self.stagger_load:
             raise ValueError(f"recover_load: expected < stagger_load={self.stagger_load}, got {self.recover_load}")
         if not 0 < self.fall_tilt_deg < 90 or not self.upright_tilt_deg < self.fall_tilt_deg:

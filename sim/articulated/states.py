@@ -9,7 +9,6 @@ from sim.snapshot import CharacterState
 
 S = CharacterState
 GETUP_SETTLE_S = 0.3  # s after the get-up clip's last frame before judging whether it stands
-GETUP_GRACE_S = 1.2  # s after the last frame by which it must be upright (holding that frame), else it fell
 
 
 @dataclass(frozen=True)
@@ -47,7 +46,7 @@ def next_state(state: CharacterState, r: Readings, spec: ArticulatedSpec, hold_s
         if r.clip_s >= r.clip_duration + GETUP_SETTLE_S:
             if r.tilt_deg <= s.upright_tilt_deg and r.root_z >= s.upright_height:
                 return S.WALK, 0.0
-            if r.clip_s >= r.clip_duration + GETUP_GRACE_S or r.tilt_deg >= s.fall_tilt_deg:
+            if r.clip_s >= r.clip_duration + s.getup_grace_s or r.tilt_deg >= s.fall_tilt_deg:
                 return S.FALL, 0.0
         return (S.FALL, 0.0) if r.state_s >= s.getup_timeout_s else (state, 0.0)
     return state, hold_s

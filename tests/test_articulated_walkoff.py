@@ -1,0 +1,61 @@
+"""Walking off after a get-up: the character that stood up walks on without falling again (issue 9)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+import pybullet as p
+import pytest
+
+from sim.articulated.character import ArticulatedCharacter
+from sim.articulated.skeleton import deepmimic_humanoid
+from sim.articulated.spec import ArticulatedSpec
+from sim.config import WorldConfig
+from sim.physics import open_client
+from sim.snapshot import CharacterState
+
+DT = 1.0 / 240.0
+DOWN = (CharacterState.FALL, CharacterState.LIE, CharacterState.STAND_UP)
+
+
+@pytest.fixture()
+def client() -> Iterator[int]:
+    c, _ = open_client(WorldConfig())
+    yield c
+    p.disconnect(c)
+
+
+def _until(client: int, ch: ArticulatedCharacter, seconds: float, done: list[CharacterState]) -> bool:
+    for _ in range(int(round(seconds / DT))):
+        ch.step_control(DT)
+        p.stepSimulation(physicsClientId=client)
+        if ch.state in done:
+            return True
+    return False
+
+
+@pytest.mark.parametrize("side", [False, True])
+def test_walks_on_after_getting_up(client: int, side: bool) -> None:
+    ch = ArticulatedCharacter(client, deepmimic_humanoid(), ArticulatedSpec(), None, (0.0, 0.0), 0.0)
+    assert not _until(client, ch, 2.0, list(DOWN))
+    ch.push("root", (0.0, 600.0, 0.0) if side else (600.0, 0.0, 0.0), 0.2)  # heading +x: forward / to its left
+    assert _until(client, ch, 3.0, [CharacterState.FALL])
+    assert _until(client, ch, 10.0, [CharacterState.WALK]) and ch.getups == 1
+    start = ch.root()[0].copy()
+    fell_again = _until(client, ch, 6.0, list(DOWN))
+    assert not fell_again, f"fell again {ch.t:.2f} s into the run"
+    assert float(np.linalg.norm((ch.root()[0] - start)[:2])) > 2.0  # walked on, not stood still
+    # the walk-in help stays within its bound: the walking torque limit times walk_in_assist
+    s = ch.spec
+    assert ch.external_assist_peak_nm <= max(s.getup_assist_torque_max_nm,
+                                             s.assist_torque_max_nm * s.walk_in_assist) + 1e-6
+
+
+def test_walk_in_fields_are_checked() -> None:
+    with pytest.raises(ValueError, match="^walk_in_blend_s"):
+        ArticulatedSpec(walk_in_blend_s=-0.1)
+    with pytest.raises(ValueError, match="^getup_grace_s"):
+        ArticulatedSpec(getup_grace_s=0.0)
+    with pytest.raises(ValueError, match="^ankle_gain_coronal"):
+        ArticulatedSpec(ankle_gain_coronal=-1.0)
