@@ -224,7 +224,7 @@ class DepthObserver:
                     people.append(q)
         people.sort(key=len, reverse=True)
         people = people[: cfg.max_people]
-        centres = [(float(q[:, 0].mean()), float(q[:, 1].mean())) for q in people]
+        centres = [(float(q[:, 0].sum()) / len(q), float(q[:, 1].sum()) / len(q)) for q in people]  # the means
         ids = self._tracker.assign(centres)
         hidden = self._hidden_people(ids, centres, frame.t)
         contactors: list[Contactor] = []
@@ -300,15 +300,15 @@ class DepthObserver:
         top = float(q[:, 2].max())
         out: list[tuple[str, str, np.ndarray, float]] = []
         head = q[q[:, 2] > top - 0.15]
-        out.append(("head", "head", self._inset(head.mean(axis=0), 0.08), 0.12))
+        out.append(("head", "head", self._inset(head.sum(axis=0) / len(head), 0.08), 0.12))
         z = q[:, 2]
         torso = q[(z > 0.45 * top) & (z < 0.8 * top), :2]
-        axis = torso.mean(axis=0) if len(torso) else q[:, :2].mean(axis=0)
+        axis = torso.sum(axis=0) / len(torso) if len(torso) else q[:, :2].sum(axis=0) / len(q)
         # the hull: stacked spheres, as wide as their band's points spread (RMS) around its middle
-        band = np.minimum((np.digitize(z, (0.3 * top, 0.55 * top, 0.8 * top))), 3)
+        band = np.minimum(np.searchsorted(np.array([0.3 * top, 0.55 * top, 0.8 * top]), z, side="right"), 3)  # digitize
         count = np.bincount(band, minlength=4)
         centre = np.stack([np.bincount(band, q[:, i], minlength=4) for i in (0, 1)], axis=1) / np.maximum(count, 1)[:, None]
-        spread = np.bincount(band, np.sum(np.square(q[:, :2] - centre[band]), axis=1), minlength=4)
+        spread = np.bincount(band, np.add.reduce(np.square(q[:, :2] - centre[band]), axis=1), minlength=4)
         radius = np.clip(np.sqrt(spread / np.maximum(count, 1)) * 1.2, 0.08, 0.35)
         mids = (0.15 * top, 0.425 * top, 0.675 * top, 0.9 * top)
         for i in range(4):
@@ -326,7 +326,7 @@ class DepthObserver:
     def _inset(self, point: np.ndarray, distance: float) -> np.ndarray:
         """A surface point moved ``distance`` away from the camera (toward the inside of the body)."""
         ray = point - self._cal.centre
-        return np.asarray(point + ray / float(np.linalg.norm(ray)) * distance, dtype=np.float64)
+        return np.asarray(point + ray / math.sqrt(float(ray.dot(ray))) * distance, dtype=np.float64)
 
     def _velocity(self, key: tuple[int, str], pos: np.ndarray, t: float, born: bool) -> np.ndarray:
         """The alpha-beta filtered velocity of one contactor track (zero on its first frame)."""
@@ -355,8 +355,8 @@ def _split_side_by_side(q: np.ndarray, separation: float, depth: int = 0) -> lis
     sample = upper[:: max(1, len(upper) // 200)]
     if float(np.hypot(*np.ptp(sample, axis=0))) < separation:
         return [q]  # two halves' middles lie within the points' box: no two of them that far apart
-    a = sample[int(np.argmax(np.sum(np.square(sample - sample.mean(axis=0)), axis=1)))]
-    b = sample[int(np.argmax(np.sum(np.square(sample - a), axis=1)))]
+    a = sample[int(np.argmax(np.add.reduce(np.square(sample - sample.sum(axis=0) / len(sample)), axis=1)))]
+    b = sample[int(np.argmax(np.add.reduce(np.square(sample - a), axis=1)))]
     near_a = np.ones(len(sample), dtype=bool)
     total, n = sample.sum(axis=0), len(sample)
     for _ in range(6):
@@ -367,12 +367,12 @@ def _split_side_by_side(q: np.ndarray, separation: float, depth: int = 0) -> lis
             return [q]
         sum_a = sample[near_a].sum(axis=0)
         a, b = sum_a / k, (total - sum_a) / (n - k)
-        if np.array_equal(was, near_a):
+        if bool((was == near_a).all()):
             break
-    share = float(near_a.mean())
-    if min(share, 1 - share) < 0.2 or float(np.linalg.norm(a - b)) < separation:
+    share = k / n
+    if min(share, 1 - share) < 0.2 or math.sqrt(float((a - b).dot(a - b))) < separation:
         return [q]
-    side = np.sum(np.square(q[:, :2] - a), axis=1) < np.sum(np.square(q[:, :2] - b), axis=1)
+    side = np.add.reduce(np.square(q[:, :2] - a), axis=1) < np.add.reduce(np.square(q[:, :2] - b), axis=1)
     for half in (q[side], q[~side]):
         if np.count_nonzero(half[:, 2] < 0.5) < 5:
             return [q]

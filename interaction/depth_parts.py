@@ -57,18 +57,36 @@ class FineDepth:
         self._matrix, self._centre = calibration.matrix, calibration.centre
         self._centre32 = self._centre.astype(np.float32)[:, None, None]
         self._key: tuple[int, int, tuple[float, ...]] | None = None
+        # the stage direction per metre of depth of every pixel (3, h, w), made a band of rows at a
+        # time when first asked for (no frame pays for the whole image at once)
         self._rays = np.zeros((3, 0, 0), np.float32)
+        self._rows_made = np.zeros(0, dtype=bool)
+        self._across = np.zeros(0)  # the camera's x / z per pixel column
+        self._down = np.zeros(0)  # … and y / z per pixel row
         self._image: DepthImage | None = None
 
     def set_frame(self, p: DepthImage) -> None:
         h, w = p.depth_mm.shape
         key = (w, h, (p.fx, p.fy, p.cx, p.cy))
         if self._key != key:
-            v, u = np.mgrid[0:h, 0:w].astype(np.float64)
-            cam = np.stack([(u - p.cx) / p.fx, (v - p.cy) / p.fy, np.ones_like(u)], axis=0)
-            self._rays = np.ascontiguousarray(np.einsum("ij,jhw->ihw", self._cal.matrix, cam), dtype=np.float32)
+            self._across = (np.arange(w, dtype=np.float64) - p.cx) / p.fx
+            self._down = (np.arange(h, dtype=np.float64) - p.cy) / p.fy
+            self._rays = np.zeros((3, h, w), np.float32)
+            self._rows_made = np.zeros(h, dtype=bool)
             self._key = key
         self._image = p
+
+    def _rays_of(self, v0: int, v1: int, u0: int, u1: int) -> np.ndarray:
+        """The stage rays (3, v1 - v0, u1 - u0) of a crop's pixels (its rows made now if not yet)."""
+        if not self._rows_made[v0:v1].all():
+            missing = np.flatnonzero(~self._rows_made[v0:v1])
+            a, b = v0 + int(missing[0]), v0 + int(missing[-1]) + 1
+            shape = (b - a, len(self._across))
+            cam = np.stack([np.broadcast_to(self._across, shape), np.broadcast_to(self._down[a:b, None], shape),
+                            np.ones(shape)], axis=0)
+            self._rays[:, a:b] = np.einsum("ij,jhw->ihw", self._matrix, cam)
+            self._rows_made[a:b] = True
+        return self._rays[:, v0:v1, u0:u1]
 
     def points_near(self, centre: np.ndarray, radius: float, min_height: float, smooth: bool = False) -> np.ndarray:
         """The stage points (N, 3) of the image's pixels within ``radius`` of ``centre`` and higher than
@@ -77,11 +95,11 @@ class FineDepth:
         p = self._image
         if p is None:
             return np.zeros((0, 3))
-        cam = (centre - self._centre) @ self._matrix
-        if cam[2] <= 0.05:
+        across, down, ahead = ((centre - self._centre) @ self._matrix).tolist()
+        if ahead <= 0.05:
             return np.zeros((0, 3))
-        u, v = p.fx * cam[0] / cam[2] + p.cx, p.fy * cam[1] / cam[2] + p.cy
-        half = radius * p.fx / cam[2] + 2.0
+        u, v = p.fx * across / ahead + p.cx, p.fy * down / ahead + p.cy
+        half = radius * p.fx / ahead + 2.0
         h, w = p.depth_mm.shape
         u0, u1 = max(0, int(u - half)), min(w, int(u + half) + 1)
         v0, v1 = max(0, int(v - half)), min(h, int(v + half) + 1)
@@ -91,7 +109,7 @@ class FineDepth:
         if smooth and min(crop.shape) >= 3:
             crop = cv2.medianBlur(np.ascontiguousarray(crop), 3)
         z = crop.astype(np.float32) * np.float32(0.001)
-        pts = (self._rays[:, v0:v1, u0:u1] * z + self._centre32).reshape(3, -1)
+        pts = (self._rays_of(v0, v1, u0, u1) * z + self._centre32).reshape(3, -1)
         keep = (z.reshape(-1) > 0) & (pts[2] > min_height)
         off = pts - centre.astype(np.float32)[:, None]
         keep &= np.einsum("ij,ij->j", off, off) < radius * radius
@@ -100,7 +118,7 @@ class FineDepth:
     def inset(self, point: np.ndarray, distance: float) -> np.ndarray:
         """``point`` moved ``distance`` farther along its viewing ray (into the part seen)."""
         ray = point - self._centre
-        return np.asarray(point + ray / max(float(np.linalg.norm(ray)), 1e-9) * distance, dtype=np.float64)
+        return np.asarray(point + ray / max(math.sqrt(float(ray.dot(ray))), 1e-9) * distance, dtype=np.float64)
 
 
 def find_hands(q: np.ndarray, top: float, axis: np.ndarray, torso_r: float, feet: list[np.ndarray],
@@ -111,7 +129,7 @@ def find_hands(q: np.ndarray, top: float, axis: np.ndarray, torso_r: float, feet
     scale = top / 1.6
     arm = q[q[:, 2] > band_low * top]
     out = max(min_reach, torso_r + 0.1)
-    arm = arm[np.sum(np.square(arm[:, :2] - axis), axis=1) >= out * out]  # out of the torso
+    arm = arm[np.add.reduce(np.square(arm[:, :2] - axis), axis=1) >= out * out]  # out of the torso
     hips = np.array([axis[0], axis[1], 0.5 * top])
     for foot in feet:
         arm = arm[_distance_to_segment(arm, foot, hips) > 0.16 * scale]
@@ -120,15 +138,15 @@ def find_hands(q: np.ndarray, top: float, axis: np.ndarray, torso_r: float, feet
     # a hand has nothing right under it (a knee or a thigh has the shin): no point of the body within
     # 7 cm across and 10–35 cm below
     lo, hi = arm[:, :2].min(axis=0) - 0.07 * scale, arm[:, :2].max(axis=0) + 0.07 * scale
-    below = q[(q[:, 2] < float(arm[:, 2].max()) - 0.1 * scale) & np.all((q[:, :2] > lo) & (q[:, :2] < hi), axis=1)]
+    below = q[(q[:, 2] < float(arm[:, 2].max()) - 0.1 * scale) & np.logical_and.reduce((q[:, :2] > lo) & (q[:, :2] < hi), axis=1)]
     if len(below):
-        dxy = np.sum(np.square(arm[:, None, :2] - below[None, :, :2]), axis=2) < (0.07 * scale) ** 2
+        dxy = np.add.reduce(np.square(arm[:, None, :2] - below[None, :, :2]), axis=2) < (0.07 * scale) ** 2
         dz = arm[:, None, 2] - below[None, :, 2]
         arm = arm[np.count_nonzero(dxy & (dz > 0.1 * scale) & (dz < 0.35 * scale), axis=1) <= 2]
         if not len(arm):
             return []
     shoulders = _shoulders(q, top, axis, scale)
-    to_shoulder = np.sqrt(np.sum(np.square(arm[:, None, :] - shoulders[None]), axis=2))
+    to_shoulder = np.sqrt(np.add.reduce(np.square(arm[:, None, :] - shoulders[None]), axis=2))
     nearer = np.argmin(to_shoulder, axis=1)
     along = to_shoulder[np.arange(len(arm)), nearer]
     along = np.where(along < MAX_ARM_REACH * top, along, -1.0)  # farther: legs
@@ -142,7 +160,7 @@ def find_hands(q: np.ndarray, top: float, axis: np.ndarray, torso_r: float, feet
         if hand is not None:
             hands.append(hand)
         # the second hand: not on this arm (near the line from its shoulder to its tip)
-        elsewhere = (np.sum(np.square(arm - tip), axis=1) > (0.3 * scale) ** 2) \
+        elsewhere = (np.add.reduce(np.square(arm - tip), axis=1) > (0.3 * scale) ** 2) \
             & (_distance_to_segment(arm, shoulder, tip) > 0.15 * scale)
         along = np.where(elsewhere, along, -1.0)
     return hands
@@ -153,7 +171,7 @@ def _shoulders(q: np.ndarray, top: float, axis: np.ndarray, scale: float) -> np.
     torso's axis along the chest's widest horizontal direction."""
     z = q[:, 2]
     chest = q[(z > 0.55 * top) & (z < 0.75 * top), :2] - axis
-    chest = chest[np.sum(np.square(chest), axis=1) < (0.25 * scale) ** 2]
+    chest = chest[np.add.reduce(np.square(chest), axis=1) < (0.25 * scale) ** 2]
     if len(chest) < 6:
         centre = np.array([axis[0], axis[1], 0.82 * top])
         return np.stack([centre, centre])
@@ -167,7 +185,7 @@ def _shoulders(q: np.ndarray, top: float, axis: np.ndarray, scale: float) -> np.
 def _distance_to_segment(pts: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     ab = b - a
     s = np.clip((pts - a) @ ab / max(float(ab @ ab), 1e-12), 0.0, 1.0)
-    return np.asarray(np.sqrt(np.sum(np.square(pts - (a + s[:, None] * ab)), axis=1)))
+    return np.asarray(np.sqrt(np.add.reduce(np.square(pts - (a + s[:, None] * ab)), axis=1)))
 
 
 def _hand_middle(tip: np.ndarray, shoulders: np.ndarray, fine: FineDepth, scale: float) -> np.ndarray | None:
@@ -184,7 +202,7 @@ def _hand_middle(tip: np.ndarray, shoulders: np.ndarray, fine: FineDepth, scale:
     hand = pts[along > far - 2 * HAND_RADIUS_M * scale]
     if len(hand) < 3:
         return None
-    return fine.inset(hand.mean(axis=0), 2.0 / 3.0 * HAND_RADIUS_M * scale)
+    return fine.inset(hand.sum(axis=0) / len(hand), 2.0 / 3.0 * HAND_RADIUS_M * scale)
 
 
 def find_feet(q: np.ndarray, fine: FineDepth) -> list[np.ndarray]:
@@ -197,21 +215,21 @@ def find_feet(q: np.ndarray, fine: FineDepth) -> list[np.ndarray]:
     if len(low) < 4 or not len(shins):
         return []
     shins = shins[:: max(1, len(shins) // 16)]
-    d2 = np.min(np.sum(np.square(low[:, None, :2] - shins[None]), axis=2), axis=1)
+    d2 = np.minimum.reduce(np.add.reduce(np.square(low[:, None, :2] - shins[None]), axis=2), axis=1)
     low = low[d2 < 0.2 * 0.2]
     if len(low) < 4:
         return []
     out = []
     for members in two_clusters(low):
-        centre = members.mean(axis=0)
+        centre = members.sum(axis=0) / len(members)
         column = fine.points_near(np.array([centre[0], centre[1], 0.15]), 0.2, 0.045, smooth=True)
-        column = column[(np.sum(np.square(column[:, :2] - centre[:2]), axis=1) < 0.12 * 0.12) & (column[:, 2] < 0.3)]
+        column = column[(np.add.reduce(np.square(column[:, :2] - centre[:2]), axis=1) < 0.12 * 0.12) & (column[:, 2] < 0.3)]
         if len(column) < 4:
             continue
         k = len(column) // 10
         bottom = float(np.partition(column[:, 2], k)[k])  # a raised foot is measured where it is
         shoe = column[column[:, 2] < bottom + FOOT_TOP_M]
-        foot = fine.inset(shoe.mean(axis=0), FOOT_HALF_HEIGHT_M)
+        foot = fine.inset(shoe.sum(axis=0) / len(shoe), FOOT_HALF_HEIGHT_M)
         if bottom < FOOT_ON_FLOOR_M:  # its sole is on the floor, under what can be told from it
             foot[2] = SHOE_MIDDLE_M
         out.append(foot)
@@ -221,20 +239,22 @@ def find_feet(q: np.ndarray, fine: FineDepth) -> list[np.ndarray]:
 def two_clusters(pts: np.ndarray) -> list[np.ndarray]:
     """Points split in two along their widest horizontal direction by 2-means on that direction (one
     group when the two middles are closer than 12 cm): the groups' points."""
-    xy = pts[:, :2] - pts[:, :2].mean(axis=0)
+    xy = pts[:, :2] - pts[:, :2].sum(axis=0) / len(pts)
     cov = xy.T @ xy
     angle = 0.5 * math.atan2(2 * cov[0, 1], cov[0, 0] - cov[1, 1])  # the widest direction
     s = xy @ np.array([math.cos(angle), math.sin(angle)])
     cut = 0.0
     for _ in range(4):
-        left, right = s[s < cut], s[s >= cut]
+        to_left = s < cut
+        left, right = s[to_left], s[~to_left]
         if len(left) < 2 or len(right) < 2:
             return [pts]
-        cut = 0.5 * (float(left.mean()) + float(right.mean()))
+        cut = 0.5 * (float(left.sum()) / len(left) + float(right.sum()) / len(right))  # the means
     to_a = s < cut
     if to_a.sum() < 2 or (~to_a).sum() < 2:
         return [pts]
     a, b = pts[to_a], pts[~to_a]
-    if np.linalg.norm(a[:, :2].mean(axis=0) - b[:, :2].mean(axis=0)) < 0.12:
+    gap = a[:, :2].sum(axis=0) / len(a) - b[:, :2].sum(axis=0) / len(b)
+    if math.sqrt(float(gap.dot(gap))) < 0.12:
         return [pts]
     return [a, b]

@@ -115,7 +115,7 @@ class LimbTracker:
         a, b = track.velocity, track.previous
         if a is None or b is None:
             return False
-        na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+        na, nb = math.sqrt(float(a.dot(a))), math.sqrt(float(b.dot(b)))  # the norms
         if min(na, nb) < self._min_speed:
             return False
         return float(a @ b) >= self._cos_consistent * na * nb
@@ -124,7 +124,8 @@ class LimbTracker:
         if track is None or t <= track.t:
             return _Track(pos.copy(), t)
         fresh = track.unseen > 0
-        residual = float(np.linalg.norm(pos - _predict(track, t)))
+        off = pos - _predict(track, t)
+        residual = math.sqrt(float(off.dot(off)))
         track.previous = None if fresh else track.velocity
         track.velocity = (pos - track.position) / (t - track.t)
         track.position, track.t = pos.copy(), t
