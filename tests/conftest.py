@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import time
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
@@ -30,3 +31,24 @@ def display() -> Iterator[str]:
     yield name
     proc.terminate()
     proc.wait(timeout=10)
+
+
+@pytest.fixture(scope="module")
+def skeleton() -> Any:
+    """The DeepMimic humanoid as an ``ArticulatedSkeleton`` (articulated-character tests)."""
+    from sim.articulated.skeleton import deepmimic_humanoid
+
+    return deepmimic_humanoid()
+
+
+@pytest.fixture()
+def client() -> Iterator[int]:
+    """A pybullet DIRECT client set up as the World sets its own (gravity, time step, solver)."""
+    import pybullet as p
+
+    from sim.config import WorldConfig
+    from sim.physics import open_client
+
+    c, _ = open_client(WorldConfig())
+    yield c
+    p.disconnect(c)

@@ -4,37 +4,22 @@ the World hook (strike, contactors, snapshots, config)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pybullet as p
-import pytest
 
 from interaction.types import BodyObservation, Contactor
 from sim.articulated import balance as bal
 from sim.articulated.character import ArticulatedCharacter
-from sim.articulated.skeleton import ArticulatedSkeleton, deepmimic_humanoid
+from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
 from sim.config import WorldConfig
-from sim.physics import open_client
 from sim.snapshot import CharacterState
 from sim.world import World
 
 DT = 1.0 / 240.0
 ROOT = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture(scope="module")
-def skeleton() -> ArticulatedSkeleton:
-    return deepmimic_humanoid()
-
-
-@pytest.fixture()
-def client() -> Iterator[int]:
-    c, _ = open_client(WorldConfig())
-    yield c
-    p.disconnect(c)
 
 
 def run(client: int, ch: ArticulatedCharacter, seconds: float, push_at: float | None = None,

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 
 import numpy as np
 import pybullet as p
 import pytest
 
 from sim.articulated.character import ArticulatedCharacter
-from sim.articulated.skeleton import ArticulatedSkeleton, deepmimic_humanoid
+from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
 from sim.config import WorldConfig
 from sim.physics import open_client
@@ -18,18 +17,6 @@ from sim.snapshot import CharacterState
 
 DT = 1.0 / 240.0
 UPRIGHT = (CharacterState.WALK, CharacterState.STAGGER)
-
-
-@pytest.fixture(scope="module")
-def skeleton() -> ArticulatedSkeleton:
-    return deepmimic_humanoid()
-
-
-@pytest.fixture()
-def client() -> Iterator[int]:
-    c, _ = open_client(WorldConfig())
-    yield c
-    p.disconnect(c)
 
 
 def walk(client: int, skeleton: ArticulatedSkeleton, seconds: float, spec: ArticulatedSpec | None = None,

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import numpy as np
 import pybullet as p
 import pytest
@@ -11,19 +9,10 @@ import pytest
 from sim.articulated.character import ArticulatedCharacter
 from sim.articulated.skeleton import deepmimic_humanoid
 from sim.articulated.spec import ArticulatedSpec
-from sim.config import WorldConfig
-from sim.physics import open_client
 from sim.snapshot import CharacterState
 
 DT = 1.0 / 240.0
 DOWN = (CharacterState.FALL, CharacterState.LIE, CharacterState.STAND_UP)
-
-
-@pytest.fixture()
-def client() -> Iterator[int]:
-    c, _ = open_client(WorldConfig())
-    yield c
-    p.disconnect(c)
 
 
 def _until(client: int, ch: ArticulatedCharacter, seconds: float, done: list[CharacterState]) -> bool:
