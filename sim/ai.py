@@ -264,3 +264,20 @@ def on_stood_up(crowd: Crowd, row: int, t: float) -> None:
     if crowd.after_fall[row] != NO_INTENT:
         crowd.override_intent[row] = crowd.intent[row] = crowd.after_fall[row]
         crowd.override_until[row] = t + crowd.cols.after_fall_s[row]
+
+
+def impose_intent(crowd: Crowd, intent: str | None, saved: NDArray[np.int64] | None) -> NDArray[np.int64] | None:
+    """Make every character's own intent ``intent`` (attract mode), keeping their own ones in the returned
+    array; ``intent=None`` gives them back ``saved`` and returns None."""
+    from sim.config import INTENTS
+
+    if intent is None:
+        if saved is not None:
+            crowd.base_intent[:len(saved)] = saved
+        return None
+    if intent not in INTENTS:
+        raise ValueError(f"intent: expected one of {', '.join(INTENTS)} or None, got {intent!r}")
+    if saved is None:
+        saved = crowd.base_intent.copy()
+    crowd.base_intent[:] = INTENTS.index(intent)
+    return saved

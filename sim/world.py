@@ -27,7 +27,7 @@ import numpy as np
 import pybullet as p
 
 from interaction.types import BodyObservation
-from sim.ai import Neighbours, Stage, decide, notice_push, separation_velocities
+from sim.ai import Neighbours, Stage, decide, impose_intent, notice_push, separation_velocities
 from sim.articulated.spec import ArticulatedSpec
 from sim.articulated.troupe import ArticulatedCharacters
 from sim.balance import BalanceDesign
@@ -125,20 +125,14 @@ class World:
         if len(position) != 2 or not all(math.isfinite(v) for v in (*position, heading)):
             raise ValueError(f"position: expected finite (x, y) and heading, got {position!r}, {heading!r}")
         if isinstance(spec, ArticulatedSpec):
-            name, k = spec.name, 1
-            while name in self._crowd.index or name in self.articulated:
-                k += 1
-                name = f"{spec.name}-{k}"
-            return self.articulated.add(name, spec, (float(position[0]), float(position[1])), float(heading))
+            return self.articulated.add(self._unique_name(spec.name), spec, (float(position[0]), float(position[1])),
+                                        float(heading))
         if intent not in INTENTS:
             raise ValueError(f"intent: expected one of {', '.join(INTENTS)}, got {intent!r}")
         path = np.asarray(spec.waypoints if waypoints is None else waypoints, dtype=np.float64).reshape(-1, 2)
         if not np.isfinite(path).all():
             raise ValueError(f"waypoints: expected finite (x, y) pairs, got {waypoints!r}")
-        name, k = spec.name, 1
-        while name in self._crowd.index or name in self.articulated:
-            k += 1
-            name = f"{spec.name}-{k}"
+        name = self._unique_name(spec.name)
         shape_key = tuple(getattr(spec, f) for f in _SHAPE_FIELDS)
         if shape_key not in self._shapes:
             self._shapes[shape_key] = create_shape(client, spec)
@@ -158,17 +152,14 @@ class World:
     def set_intent_all(self, intent: str | None) -> None:
         """Every character follows ``intent`` instead of its own (pushes and falls still come first);
         ``None``: each follows the intent it was added with again."""
-        crowd = self._crowd
-        if intent is None:
-            if self._own_intents is not None:
-                crowd.base_intent[:len(self._own_intents)] = self._own_intents
-                self._own_intents = None
-            return
-        if intent not in INTENTS:
-            raise ValueError(f"intent: expected one of {', '.join(INTENTS)} or None, got {intent!r}")
-        if self._own_intents is None:
-            self._own_intents = crowd.base_intent.copy()
-        crowd.base_intent[:] = INTENTS.index(intent)
+        self._own_intents = impose_intent(self._crowd, intent, self._own_intents)
+
+    def _unique_name(self, base: str) -> str:
+        name, k = base, 1
+        while name in self._crowd.index or name in self.articulated:
+            k += 1
+            name = f"{base}-{k}"
+        return name
 
     def terrain(self, config: TerrainConfig) -> Quadrupeds:
         """The cube terrain (made on first call, with its pybullet twin) and its quadrupeds (``add``)."""
