@@ -236,10 +236,11 @@ def _refine_with_heatmap(xy: np.ndarray, heat: np.ndarray) -> np.ndarray:
 LIMBS: dict[str, tuple[int, ...]] = {
     "left_hand": (15, 17, 19),  # wrist, pinky, index
     "right_hand": (16, 18, 20),
-    "left_foot": (27, 29, 31),  # ankle, heel, toes
-    "right_foot": (28, 30, 32),
+    "left_foot": (29, 31),  # heel, toes
+    "right_foot": (30, 32),
 }
-"""The contactors made from keypoints: each is the mean of its visible keypoints."""
+"""The contactors made from keypoints: each is the mean of its visible keypoints. A foot is the middle
+of the heel and the toes (the shoe's middle; the ankle is above it: with it, feet sat ~3 cm high)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -323,6 +324,11 @@ class PoseTracker:
         if kp.score < self.min_score:
             self._last.pop(person, None)
             return None
+        if crop is None:  # first sight: the outline's crop is rough; look again where the keypoints say
+            again = kp.next_crop()
+            if again is not None:
+                better = self.model.keypoints(bgr, again)
+                kp = better if better.score >= self.min_score else kp
         self._last[person] = kp
         return kp
 

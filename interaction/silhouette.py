@@ -1,7 +1,9 @@
 """Who stands in front of the webcam: a frozen background, light compensation, shadow suppression.
 
 The background is the per-pixel median of the first frames (the stage is empty then), along with
-each pixel's own noise. A frame is compared against it after undoing global light change (a gain
+each pixel's own noise (the spread of its values over those frames). Both come from the frames
+sorted per pixel, which is built up frame by frame while learning (each frame is sorted into place,
+one min/max pass), so the frame that ends learning costs no more than any other. A frame is compared against it after undoing global light change (a gain
 per colour channel, measured where no one stood in the last frame). A pixel is foreground when its
 colour is far from the background's, unless it is merely a shadow: darker by a bounded ratio
 with the background's colour. The background follows the room slowly only while no one is in view.
@@ -18,7 +20,8 @@ __all__ = ["BackgroundModel"]
 
 _GAIN_STRIDE = 6  # measure the light gain on every 6th pixel in each direction
 _MIN_BG_LEVEL = 12.0  # background channel values below this tell nothing about the gain
-_CHI3_MEDIAN = 1.54  # median of |3-D standard normal|: turns a median distance into a per-channel σ
+_IQR_PER_SIGMA = 1.349  # a normal distribution's interquartile range, in σ
+_CHANNEL_MEAN = np.full((1, 3), 1.0 / 3.0, dtype=np.float32)
 
 
 class BackgroundModel:
@@ -26,9 +29,12 @@ class BackgroundModel:
 
     def __init__(self, config: WebcamObserverConfig) -> None:
         self._cfg = config
-        k = config.morphology_px
+        k = config.morphology_px | 1  # odd: an even kernel's open/close shifts the mask by a pixel
         self._kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
-        self._learned: list[np.ndarray] = []
+        # bridges a body cut across by a band that looks like the background (a belt, a lit thigh as
+        # bright as the floor): up and down only, so the gaps between the legs and beside the arms stay
+        self._bridge = cv2.getStructuringElement(cv2.MORPH_RECT, (1, 2 * k + 1))
+        self._sorted: list[np.ndarray] = []  # the learning frames, sorted per pixel and channel (uint8)
         self._bg: np.ndarray | None = None  # float32 (H, W, 3)
         self._bg_sq: np.ndarray | None = None  # its square, per channel
         self._thr2: np.ndarray | None = None  # float32 (H, W): squared distance threshold per pixel
@@ -44,7 +50,7 @@ class BackgroundModel:
     @property
     def size(self) -> tuple[int, int] | None:
         """(width, height) of the learned background, or of the frames being learned."""
-        ref = self._bg if self._bg is not None else (self._learned[0] if self._learned else None)
+        ref = self._bg if self._bg is not None else (self._sorted[0] if self._sorted else None)
         return None if ref is None else (int(ref.shape[1]), int(ref.shape[0]))
 
     @property
@@ -59,7 +65,7 @@ class BackgroundModel:
 
     def relearn(self) -> None:
         """Forget the background; the next ``learn_frames`` frames learn it again."""
-        self._learned.clear()
+        self._forget_learning()
         self._bg = None
         self._bg_sq = None
         self._thr2 = None
@@ -67,20 +73,30 @@ class BackgroundModel:
         self._empty_run = 0
 
     def learn(self, bgr: np.ndarray) -> None:
-        """Take one frame of the empty stage; the last of ``learn_frames`` fixes the background."""
-        self._learned.append(np.array(bgr, dtype=np.uint8, copy=True))
-        if len(self._learned) < self._cfg.learn_frames:
+        """Take one frame of the empty stage; the last of ``learn_frames`` fixes the background.
+
+        The background is the per-pixel, per-channel median of the frames; each pixel's noise σ the
+        root mean square over the channels of their interquartile range over 1.349 (for Gaussian noise
+        the σ that the median distance to the background gives; like it, high where something moved
+        while learning, so that what was there then does not come back as a ghost)."""
+        _insert_sorted(self._sorted, np.array(bgr, dtype=np.uint8, copy=True))
+        k = len(self._sorted)
+        if k < self._cfg.learn_frames:
             return
-        stack = np.stack(self._learned)
-        bg = np.median(stack, axis=0).astype(np.float32)
-        dist = np.sqrt(((stack.astype(np.float32) - bg) ** 2).sum(axis=3))  # (K, H, W)
-        sigma = np.median(dist, axis=0) / _CHI3_MEDIAN
-        sigma = cv2.blur(sigma.astype(np.float32), (5, 5))
+        lo, hi = self._sorted[(k - 1) // 2], self._sorted[k // 2]  # the median, as np.median takes it
+        bg = (lo.astype(np.float32) + hi.astype(np.float32)) * np.float32(0.5)
+        q = (k - 1) // 4
+        iqr = cv2.subtract(self._sorted[k - 1 - q], self._sorted[q]).astype(np.float32)
+        spread = np.sqrt(cv2.transform(cv2.multiply(iqr, iqr), _CHANNEL_MEAN)) / np.float32(_IQR_PER_SIGMA)
+        sigma = cv2.blur(spread.astype(np.float32), (5, 5))
         thr = np.maximum(np.float32(self._cfg.diff_threshold), np.float32(self._cfg.noise_sigmas) * sigma)
         self._bg = bg
         self._bg_sq = bg * bg
         self._thr2 = (thr * thr).astype(np.float32)
-        self._learned.clear()
+        self._forget_learning()
+
+    def _forget_learning(self) -> None:
+        self._sorted.clear()
 
     # ------------------------------------------------------------ per frame
 
@@ -110,7 +126,8 @@ class BackgroundModel:
         shadow = (alpha >= cfg.shadow_min_ratio) & (alpha <= 1.0) & (cd2 <= tol * tol * bb + 0.25 * self._thr2)
         mask = (fg & ~shadow).view(np.uint8) * np.uint8(255)
         mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._kernel)
-        return cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._kernel)
+        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._kernel)
+        return cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._bridge)
 
     def refresh(self, bgr: np.ndarray, someone_in_view: bool) -> None:
         """Blend the frame into the background once no one has been in view for a while."""
@@ -134,3 +151,13 @@ class BackgroundModel:
         ratios = frame[keep] / bg[keep]
         g = np.clip(np.median(ratios, axis=0), 0.25, 4.0)
         return float(g[0]), float(g[1]), float(g[2])
+
+
+def _insert_sorted(stack: list[np.ndarray], x: np.ndarray) -> None:
+    """Put ``x`` into ``stack``, a list of same-shaped arrays sorted elementwise (stack[0] ≤ stack[1]
+    ≤ …), keeping it sorted: one pass of compare-and-swap, len(stack) min/max pairs."""
+    carry = x
+    for i, s in enumerate(stack):
+        stack[i] = cv2.min(s, carry)
+        carry = cv2.max(s, carry)
+    stack.append(carry)

@@ -1,12 +1,15 @@
 """The webcam observer: colour frames of people → contactors in stage metres.
 
 Per frame: foreground against the frozen background (light change undone, shadows suppressed,
-cleaned by morphology; see :mod:`interaction.silhouette`), blobs → people with ids kept by
-nearest centroid, points along each outline plus head/hands/feet (:mod:`interaction.people`),
-each with a velocity from DIS dense optical flow, all mapped through the :class:`Calibration`
-onto the stage plane. With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.pose`)
-add hands and feet as contactors with their own velocities. Pure of hardware: feed it
-:class:`sensors.Frame` objects from anywhere.
+cleaned by morphology; see :mod:`interaction.silhouette`), blobs → people (pieces under a body
+joined to it, people who walked into each other cut apart; :mod:`interaction.silhouette_parts`)
+with ids kept by nearest centroid, points along each outline plus head and hands
+(:mod:`interaction.people`) and feet at the middles of the leg ends, each with a velocity from DIS
+dense optical flow (in boxes around the people), all mapped through the :class:`Calibration` onto
+the stage plane. A hand or foot that cannot be placed (legs hidden by a background like them, a
+person cut from others) is left out rather than reported at a wrong place. With ``pose`` on,
+BlazePose's keypoints per person (:mod:`interaction.pose`) add hands and feet as contactors with
+their own velocities. Pure of hardware: feed it :class:`sensors.Frame` objects from anywhere.
 """
 
 from __future__ import annotations
@@ -17,12 +20,14 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import numpy.ma  # noqa: F401  np.median imports it on first use (~16 ms): at import, not in the first frame
 
 from interaction.calibration import Calibration
-from interaction.people import Blob, PeopleTracker, find_blobs, outline_points, split_merged
+from interaction.people import Blob, PeopleTracker, find_blobs, outline_points
 from interaction.pose import Keypoints, PoseModel, PoseModelError, PoseTracker
 from interaction.pose_models import default_model_dir, find_models
 from interaction.silhouette import BackgroundModel
+from interaction.silhouette_parts import PersonBlob, feet, join_fragments, split_people
 from interaction.types import BodyObservation, Contactor
 from interaction.webcam_config import FlowPreset, WebcamObserverConfig
 from sensors.base import ColorImage, Frame
@@ -154,10 +159,12 @@ class WebcamObserver:
         cfg = self._cfg
         h, w = grey.shape
         mask = self._background.foreground(work, ignore=self._ignore_for_light())
-        blobs = find_blobs(mask, cfg.min_blob_area * w * h, cfg.max_people)
-        if self._tracker is not None and blobs:  # people who walked into each other: cut where each was
+        found = join_fragments(find_blobs(mask, cfg.min_blob_area * w * h, 2 * cfg.max_people))[: cfg.max_people]
+        recent: list[tuple[float, float]] = []
+        if self._tracker is not None and found:  # people who walked into each other: cut where each was
             recent = [c for c, unseen in self._tracker.predicted().values() if unseen <= _SPLIT_UNSEEN_FRAMES]
-            blobs = split_merged(blobs, recent, cfg.min_blob_area * w * h)[: cfg.max_people]
+        persons = split_people(found, recent, cfg.min_blob_area * w * h)[: cfg.max_people]
+        blobs = [p.blob for p in persons]
         self._background.refresh(work, someone_in_view=bool(blobs))
 
         people = np.zeros_like(mask)
@@ -179,8 +186,8 @@ class WebcamObserver:
             self._flow_px = self._people_flow(grey, prev_grey, blobs)
 
         contactors: list[Contactor] = []
-        for pid, blob in sorted(zip(ids, blobs, strict=True), key=lambda p: p[0]):
-            contactors.extend(self._contactors(pid, blob, people, 0.0 if pid in born else dt))
+        for pid, person in sorted(zip(ids, persons, strict=True), key=lambda p: p[0]):
+            contactors.extend(self._contactors(pid, person, people, 0.0 if pid in born else dt))
         if self._pose is not None:
             contactors.extend(self._limb_contactors(bgr, ids, blobs, people, frame.t, dt, born))
         return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(blobs))
@@ -240,25 +247,36 @@ class WebcamObserver:
         return cv2.dilate(self._mask, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
 
     def _people_flow(self, grey: np.ndarray, prev_grey: np.ndarray, blobs: list[Blob]) -> np.ndarray:
-        """Backward DIS flow (current → previous frame) over the box around all people plus a margin
-        (the rest of the frame is left 0: it is never sampled)."""
+        """Backward DIS flow (current → previous frame) over the boxes around the people plus a margin,
+        overlapping boxes joined (the rest of the frame is left 0: it is never sampled). People far
+        apart cost two small boxes, not one as wide as the frame."""
         h, w = grey.shape
-        pts = np.concatenate([b.contour for b in blobs])
         m = _FLOW_MARGIN
-        u0, v0 = max(0, int(pts[:, 0].min()) - m), max(0, int(pts[:, 1].min()) - m)
-        u1, v1 = min(w, int(pts[:, 0].max()) + m + 1), min(h, int(pts[:, 1].max()) + m + 1)
+        boxes = [(max(0, int(b.contour[:, 0].min()) - m), max(0, int(b.contour[:, 1].min()) - m),
+                  min(w, int(b.contour[:, 0].max()) + m + 1), min(h, int(b.contour[:, 1].max()) + m + 1))
+                 for b in blobs]
         flow = np.zeros((h, w, 2), dtype=np.float32)
-        # None: no initial flow (OpenCV's stubs demand an array, which DIS would take as one)
-        now, before = np.ascontiguousarray(grey[v0:v1, u0:u1]), np.ascontiguousarray(prev_grey[v0:v1, u0:u1])
-        crop = self._flow.calc(now, before, None)  # type: ignore[call-overload]
-        flow[v0:v1, u0:u1] = crop
+        for u0, v0, u1, v1 in _joined_boxes(boxes):
+            now, before = np.ascontiguousarray(grey[v0:v1, u0:u1]), np.ascontiguousarray(prev_grey[v0:v1, u0:u1])
+            # None: no initial flow (OpenCV's stubs demand an array, which DIS would take as one)
+            flow[v0:v1, u0:u1] = self._flow.calc(now, before, None)  # type: ignore[call-overload]
         return flow
 
-    def _contactors(self, person: int, blob: Blob, people: np.ndarray, dt: float) -> list[Contactor]:
-        """One person's contactors; ``dt`` ≤ 0 gives them no velocity (first sight, no interval)."""
+    def _contactors(self, person: int, blob: PersonBlob, people: np.ndarray, dt: float) -> list[Contactor]:
+        """One person's contactors; ``dt`` ≤ 0 gives them no velocity (first sight, no interval).
+        Feet are the middles of the leg ends (:func:`interaction.silhouette_parts.feet`), not the
+        lowest outline points; a person cut apart from others gets no hands from the outline (its
+        torso, which tells an arm held out from the body, is partly the cut)."""
         cfg = self._cfg
-        uv_px, parts = outline_points(blob.contour, cfg.contour_spacing_px * self._scale, people.shape[::-1])
-        uv = self._to_input_px(uv_px.astype(np.float64))
+        size = people.shape[::-1]
+        outline, named = outline_points(blob.blob.contour, cfg.contour_spacing_px * self._scale, size)
+        cut = blob.cut_left or blob.cut_right  # its torso, which places the hands, is not its own outline
+        keep = [part != "foot" and not (part == "hand" and cut) for part in named]
+        found_feet = feet(blob.blob.contour, size, blob.cut_left, blob.cut_right)
+        uv_work = np.concatenate([outline[keep].astype(np.float64), found_feet])
+        parts = [p for p, k in zip(named, keep, strict=True) if k] + ["foot"] * len(found_feet)
+        uv_px = np.rint(uv_work).astype(np.intp)
+        uv = self._to_input_px(uv_work)
         pos = self._cal.image_to_stage(uv)
         vel = self._flow_velocity(uv_px, uv, pos, people, dt)
         if vel is None:
@@ -336,6 +354,23 @@ def _pose_tracker(config: WebcamObserverConfig) -> PoseTracker | None:
         log.warning("webcam observer: pose: %s; running silhouette-only, without body keypoints", e)
         return None
     return PoseTracker(model, config.pose_min_score, config.pose_min_visibility)
+
+
+def _joined_boxes(boxes: list[tuple[int, int, int, int]]) -> list[tuple[int, int, int, int]]:
+    """Boxes (u0, v0, u1, v1), those that overlap joined into the box around both, until none do."""
+    out = list(boxes)
+    k = 0
+    while k < len(out):
+        p = out[k]
+        hit = next((i for i, q in enumerate(out) if i != k and p[0] < q[2] and q[0] < p[2] and p[1] < q[3] and q[1] < p[3]),
+                   None)
+        if hit is None:
+            k += 1
+            continue
+        q = out.pop(hit)
+        out[k if hit > k else k - 1] = (min(p[0], q[0]), min(p[1], q[1]), max(p[2], q[2]), max(p[3], q[3]))
+        k = 0
+    return out
 
 
 def _median_flow(flow: np.ndarray, mask: np.ndarray, uv: np.ndarray, window: int) -> np.ndarray:

@@ -35,12 +35,15 @@ class WebcamObserverConfig:
     background's within ``shadow_colour_tolerance`` (a fraction of the brightness).
 
     People: blobs of at least ``min_blob_area`` (fraction of the image) after a morphological
-    open/close of ``morphology_px``; at most ``max_people`` (largest first); ids follow the nearest
-    centroid within ``match_distance`` (fraction of the image diagonal) and survive
-    ``track_memory_frames`` frames unseen.
+    open/close of ``morphology_px`` (an even size counts as the next odd one) and an upright close
+    of twice that (bridging a band of the body that looks like the background, a belt or a lit
+    thigh); at most ``max_people`` (largest first); ids follow the nearest centroid within
+    ``match_distance`` (fraction of the image diagonal) and survive ``track_memory_frames`` frames
+    unseen. A blob holding several people's predicted centroids is cut between them.
 
     Contactors: along each outer outline every ``contour_spacing_px`` pixels, plus head (top),
-    hands (extreme left and right) and feet (lowest points left and right of the centre).
+    hands (extreme left and right, arms held out; none for a person cut from others) and feet
+    (the middle of each leg end's lowest shoe-high band; see :mod:`interaction.silhouette_parts`).
     Radius ``contactor_radius_m`` metres, or 0 to derive it from the spacing (0.6 × spacing at
     the local image scale). Velocity: the median DIS optical flow (``flow_preset``, its finest
     pyramid level overridden by ``flow_finest_scale``: 0 full work size, 1 half, 2 quarter) over the
@@ -57,12 +60,12 @@ class WebcamObserverConfig:
 
     work_width: int = 320
     learn_frames: int = 10
-    diff_threshold: float = 30.0
+    diff_threshold: float = 16.0
     noise_sigmas: float = 4.0
-    shadow_min_ratio: float = 0.45
+    shadow_min_ratio: float = 0.6
     shadow_colour_tolerance: float = 0.12
-    morphology_px: int = 5
-    min_blob_area: float = 0.01
+    morphology_px: int = 3
+    min_blob_area: float = 0.003
     max_people: int = 4
     contour_spacing_px: float = 12.0
     contactor_radius_m: float = 0.0
