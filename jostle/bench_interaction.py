@@ -17,10 +17,16 @@ every frame, fuses them, and scores against the truth:
   (seen or hidden) that have a contactor of their part within 10 cm (what the error leaves out).
 - ``webcam_extremity_error_m_p95``: the same for the webcam's hand/foot contactors in (x, z), the
   truth carried onto the webcam's stage plane through its own camera (what a webcam can know).
+  Like the depth error it scores only the contactors reported, so a hand or foot left out costs it
+  nothing: ``webcam_extremity_found_share`` is the share of the true hands and feet inside the
+  webcam's image that have a contactor of their part within 10 cm on that plane.
 - ``velocity_direction_error_deg_p95``: depth hand/foot contactors within 10 cm of a true hand (foot)
   that moves faster than 0.5 m/s (the contactor *is* that hand): the angle between the contactor's
   velocity and the true one. Contactors that claim no velocity (the observer withholds it when its
   track is not steady) are counted in ``velocity_withheld``, not in the angle.
+  ``velocity_direction_error_deg_p95_sampled_truth``: the ceiling the frame rate sets: the same angle
+  for the exact true hand/foot centres (of everyone present, moving faster than 0.5 m/s) differenced
+  from the previous depth frame to this one (what a perfect tracker at that rate would claim).
 - ``person_count_accuracy``: depth frames (after learning) whose count of people is the count of
   people whose pelvis is inside the depth camera's view; frames with someone within 0.4 m of the
   view's edge are ambiguous and not counted (``person_count_frames`` says how many were).
@@ -110,11 +116,14 @@ class _Scores:
         self.depth_error: list[float] = []
         self.webcam_error: list[float] = []
         self.angle: list[float] = []
+        self.angle_sampled_truth: list[float] = []  # the exact centres differenced at the depth frames' times
         self.count_right = 0
         self.count_frames = 0
         self.found = 0  # true hands/feet with a depth contactor of the part within _SAME_PART_M
         self.truths = 0
         self.withheld = 0  # contactors at a moving hand/foot that claimed no velocity
+        self.webcam_found = 0  # true hands/feet in the webcam's image with a contactor of the part within _SAME_PART_M
+        self.webcam_truths = 0
 
     def figures(self) -> dict[str, Any]:
         def fps(k: str) -> float | None:
@@ -136,8 +145,13 @@ class _Scores:
             "velocity_direction_error_deg_p95": p(self.angle, 95, 1),
             "velocity_direction_error_deg_p50": p(self.angle, 50, 1),
             "velocity_samples": len(self.angle),
+            "velocity_direction_error_deg_p95_sampled_truth": p(self.angle_sampled_truth, 95, 1),
+            "velocity_direction_error_deg_p50_sampled_truth": p(self.angle_sampled_truth, 50, 1),
+            "velocity_samples_sampled_truth": len(self.angle_sampled_truth),
             "velocity_withheld": self.withheld,
             "depth_extremity_found_share": round(self.found / self.truths, 3) if self.truths else None,
+            "webcam_extremity_found_share": (round(self.webcam_found / self.webcam_truths, 3)
+                                             if self.webcam_truths else None),
             "person_count_accuracy": round(self.count_right / self.count_frames, 4) if self.count_frames else None,
             "person_count_frames": self.count_frames,
         }
@@ -177,6 +191,7 @@ def _score_recording(path: Path, scores: _Scores, *, pose: bool) -> None:
     depth = DepthObserver(DepthObserverConfig(), _depth_calibration([p for _, _, p in depth_frames[:8]],
                                                                     cameras["oak"].position))
     fusion = SensorFusion()
+    previous_truth = None
     for t_ns, seq, payload in depth_frames:
         frame = Frame("oak", t_ns / 1e9, seq, payload)
         t0 = time.perf_counter()
@@ -186,10 +201,13 @@ def _score_recording(path: Path, scores: _Scores, *, pose: bool) -> None:
         scores.times["depth"].append(t1 - t0)
         scores.latency.append((time.perf_counter() - t0) * 1000)
         scores.latency_depth.append(scores.latency[-1])
-        frame_truth = truth.get(round(frame.t * 1000))
+        frame_truth, last_truth = truth.get(round(frame.t * 1000)), previous_truth
+        previous_truth = frame_truth
         if depth.learning or frame_truth is None:
             continue
         _depth_errors(obs, frame_truth, scores)
+        if last_truth is not None:
+            scores.angle_sampled_truth.extend(sampled_truth_angles(last_truth, frame_truth))
         expected = visible_people(frame_truth, cameras["oak"])
         if expected is not None:
             scores.count_frames += 1
@@ -274,6 +292,30 @@ def _depth_errors(obs: Any, frame_truth: Any, scores: _Scores) -> None:
             scores.angle.append(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
 
 
+def sampled_truth_angles(before: Any, now: Any) -> list[float]:
+    """The velocity direction error of a perfect tracker at the depth frame rate: for each true hand
+    and foot centre moving faster than 0.5 m/s in ``now``, the angle between its step from ``before``
+    (the previous depth frame's truth, same person and side) over the time between them and its true
+    velocity (degrees)."""
+    dt = now.t - before.t
+    if dt <= 0:
+        return []
+    earlier = {person.id: person for person in before.people if person.present}
+    out = []
+    for person in now.people:
+        was = earlier.get(person.id)
+        if not person.present or was is None:
+            continue
+        for part in ("hand", "foot"):
+            for (pos, true_v), (pos0, _) in zip(body_part_centres(person, part), body_part_centres(was, part), strict=True):
+                step = (pos - pos0) / dt
+                if np.linalg.norm(true_v) <= 0.5 or np.linalg.norm(step) <= 1e-9:
+                    continue
+                cos = float(step @ true_v / (np.linalg.norm(step) * np.linalg.norm(true_v)))
+                out.append(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
+    return out
+
+
 def _webcam_errors(obs: Any, frame_truth: Any, camera: Any, homography: np.ndarray, scores: _Scores) -> None:
     from jostle.synth.camera import apply_homography
 
@@ -283,11 +325,17 @@ def _webcam_errors(obs: Any, frame_truth: Any, camera: Any, homography: np.ndarr
         joints = _joint_sets(frame_truth, part)
         if not joints:
             continue
-        on_plane = apply_homography(homography, camera.project(np.array([j[0] for j in joints])))
-        for c in obs.contactors:
-            if c.part == part:
-                d = np.linalg.norm(on_plane - np.array([c.position[0], c.position[2]]), axis=1)
-                scores.webcam_error.append(float(d.min()))
+        uv = camera.project(np.array([j[0] for j in joints]))
+        on_plane = apply_homography(homography, uv)
+        mine = np.array([[c.position[0], c.position[2]] for c in obs.contactors if c.part == part]).reshape(-1, 2)
+        for xz in mine:
+            d = np.linalg.norm(on_plane - xz, axis=1)
+            scores.webcam_error.append(float(d.min()))
+        inside = (uv[:, 0] >= 0) & (uv[:, 0] < camera.width) & (uv[:, 1] >= 0) & (uv[:, 1] < camera.height)
+        scores.webcam_truths += int(np.count_nonzero(inside))
+        if len(mine):
+            near = np.min(np.linalg.norm(on_plane[:, None, :] - mine[None], axis=2), axis=1)
+            scores.webcam_found += int(np.count_nonzero(inside & (near <= _SAME_PART_M)))
 
 
 def visible_people(frame_truth: Any, camera: Any) -> int | None:
