@@ -11,13 +11,13 @@ someone hidden for a while is found again within twice ``match_distance_m``). On
 than ``body_clearance_m`` find people (the floor's stereo noise stays below it); the other points
 within a cell or two of a person's cells (feet, an arm's sparse end) are given to that person.
 
-Each person gives a head (the top), a coarse hull of four stacked "body" spheres as wide as their
-band of the body, and hands and feet (:mod:`interaction.depth_parts`): *found* on the sampled
-points, *measured* on every pixel of the full image near them, moved from the surface seen back to
-the middle of the part. A hand is only reported when it is an arm's length out from its shoulder
-and clear of the torso (and the head) and of the legs, and not where the arm goes on behind something
-nearer (then what is seen is the forearm); feet are the points low over the floor under the shins. Hands and feet are followed by :class:`interaction.limb_tracks.LimbTracker` (reported from
-their second frame on; velocity claimed only when steady).
+Each person gives a head (the top), a coarse hull of four stacked "body" spheres as wide as their band of the
+body, and hands and feet (:mod:`interaction.depth_parts`): *found* on the sampled points, *measured* on every
+pixel of the full image near them, moved from the surface seen back to the middle of the part. A hand is only
+reported when it is an arm's length out from its shoulder and clear of the torso (and the head) and of the legs,
+and not where the arm goes on behind something nearer (then what is seen is the forearm); feet are the points
+low over the floor under the shins. Hands and feet are followed by :class:`interaction.limb_tracks.LimbTracker`
+(hands reported from their second frame on, feet from their first; velocity claimed only when steady).
 
 People: ``people`` counts those seen plus those hidden: someone seen in 5 frames or more who
 vanished less than ``hidden_memory_s`` ago next to (``hidden_near_m``) someone still seen is
@@ -98,7 +98,8 @@ class DepthObserverConfig:
     limb_steady_frames: int = 3
     limb_consistent_deg: float = 20.0  # … and claimed when its last two steps turn less than this
     limb_min_speed: float = 0.5  # … and are faster than this (m/s)
-    limb_confirm_frames: int = 2  # a hand (foot) is reported once found in this many frames in a row
+    limb_confirm_frames: int = 2  # a hand is reported once found in this many frames in a row
+    foot_confirm_frames: int = 1  # … a foot in this many (its first frame's error is no larger: no confirming)
     limb_memory_frames: int = 3  # a track not found for longer is forgotten
 
     def __post_init__(self) -> None:
@@ -114,7 +115,8 @@ class DepthObserverConfig:
         _check("cell_m", self.cell_m, 0.01, 0.5)
         _check("min_height_m", self.min_height_m, 0.1, 3.0)
         for name, hi in (("min_points", 100000), ("max_people", 64), ("track_memory_frames", 1000), ("learn_frames", 1000),
-                         ("limb_steady_frames", 100), ("limb_confirm_frames", 100), ("limb_memory_frames", 1000)):
+                         ("limb_steady_frames", 100), ("limb_confirm_frames", 100), ("foot_confirm_frames", 100),
+                         ("limb_memory_frames", 1000)):
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or not 0 <= v <= hi:
                 raise ValueError(f"{name}: expected a whole number 0..{hi}, got {v!r}")
@@ -167,7 +169,7 @@ class DepthObserver:
         self._limbs = LimbTracker(gate_m=cfg.limb_gate_m, steady_m=cfg.limb_steady_m,
                                   confirm_frames=cfg.limb_confirm_frames, steady_frames=cfg.limb_steady_frames,
                                   memory_frames=cfg.limb_memory_frames, consistent_deg=cfg.limb_consistent_deg,
-                                  min_speed=cfg.limb_min_speed)
+                                  min_speed=cfg.limb_min_speed, confirm_by_part={"foot": cfg.foot_confirm_frames})
 
     @property
     def config(self) -> DepthObserverConfig:

@@ -5,8 +5,9 @@ given to that person's tracks of the part by the cheapest assignment of detectio
 positions (constant velocity) within ``gate_m``; a detection beyond the gate of every track starts a
 new one (replacing the track unseen the longest when both slots are taken). A track is *reported*
 once it has been found in ``confirm_frames`` frames in a row (a hand seen in one frame only — most
-often a knee or a noise blob taken for one — never becomes a contactor). Its position is the
-frame's own measurement (no lag).
+often a knee or a noise blob taken for one — never becomes a contactor); ``confirm_by_part`` sets
+other counts for some parts (the depth observer's feet: 1, a foot found is a foot). Its position is
+the frame's own measurement (no lag).
 
 Its *velocity* is the frame-to-frame one (the last two positions; it lags half a frame). Measured
 on the virtual performer at 15 fps, every smoothing tried (alpha-beta gains 0.5/0.2 to 0.8/0.5,
@@ -44,8 +45,10 @@ class LimbTracker:
     """Tracks of hands and feet, keyed by (person, part, slot 0/1)."""
 
     def __init__(self, *, gate_m: float, steady_m: float, confirm_frames: int, steady_frames: int,
-                 memory_frames: int, consistent_deg: float, min_speed: float) -> None:
+                 memory_frames: int, consistent_deg: float, min_speed: float,
+                 confirm_by_part: dict[str, int] | None = None) -> None:
         self._gate, self._steady_m = gate_m, steady_m
+        self._confirm_by_part = dict(confirm_by_part or {})  # parts confirmed after other counts of frames
         self._confirm, self._steady_frames, self._memory = confirm_frames, steady_frames, memory_frames
         self._tracks: dict[tuple[int, str, int], _Track] = {}
         self._cos_consistent = math.cos(math.radians(consistent_deg))
@@ -86,10 +89,11 @@ class LimbTracker:
                 slots[maybe] = None
             order.append(maybe)
         out: list[tuple[int, np.ndarray, np.ndarray]] = []
+        confirm = self._confirm_by_part.get(part, self._confirm)
         for pos, slot in zip(found, order, strict=True):
             track = self._follow(slots[slot], pos, t)
             self._tracks[(person, part, slot)] = track
-            if track.hits >= self._confirm:
+            if track.hits >= confirm:
                 steady = track.steady >= self._steady_frames and self._consistent(track)
                 velocity = track.velocity if steady and track.velocity is not None else np.zeros(3)
                 out.append((slot, pos.copy(), velocity.copy()))

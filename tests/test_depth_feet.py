@@ -8,8 +8,10 @@ import math
 import numpy as np
 import pytest
 
+from interaction import depth_parts
 from interaction.depth_calibration import DepthCalibration
 from interaction.depth_parts import FineDepth, find_feet
+from interaction.limb_tracks import LimbTracker
 from jostle.bench_interaction import sampled_truth_angles
 from jostle.synth.truth import PersonTruth, TruthFrame
 from sensors.base import DepthImage
@@ -17,6 +19,8 @@ from sim.motion.mocap import HUMANOID
 
 W, H, F = 640, 400, 440.0
 CAMERA = np.array([0.0, -4.0, 2.4])  # stage metres, looking along +y, pitched down 25°
+LEG = ((-0.05, -0.05, 0.0), (0.05, 0.05, 1.6))  # a 1.6 m person as a box from its low corner to its high one
+SHOE = ((-0.05, -0.12, 0.0), (0.05, 0.14, 0.08))  # 26 × 10 × 8 cm, its middle 1 cm ahead of the leg's
 
 
 @pytest.fixture(scope="module")
@@ -48,15 +52,15 @@ def _render(cal: DepthCalibration, boxes: list[tuple[tuple[float, float, float],
 
 def _leg_points(fine: FineDepth) -> np.ndarray:
     """The person's sampled points: every 4th full-resolution point over the floor near the leg."""
-    return fine.points_near(np.array([0.0, 0.0, 0.4]), 0.6, 0.03)[::4]
+    return fine.points_near(np.array([0.0, 0.0, 0.8]), 0.9, 0.03)[::4]
 
 
 def test_a_leg_down_to_the_floor_has_a_foot_where_it_stands(cal: DepthCalibration) -> None:
     fine = FineDepth(cal)
-    fine.set_frame(_render(cal, [((-0.05, -0.05, 0.0), (0.05, 0.05, 0.8))]))  # a leg standing on the floor
+    fine.set_frame(_render(cal, [LEG, SHOE]))  # a leg standing on the floor in its shoe
     feet = find_feet(_leg_points(fine), fine)
     assert len(feet) == 1
-    assert float(np.hypot(feet[0][0], feet[0][1])) < 0.06
+    assert float(np.hypot(feet[0][0], feet[0][1] - 0.01)) < 0.06  # the shoe's middle
     assert feet[0][2] < 0.1
 
 
@@ -94,3 +98,41 @@ def test_the_sampled_truth_ceiling_is_the_turn_within_a_frame() -> None:
     assert sampled_truth_angles(frame(1.0, pid=8), frame(1.0 + dt)) == []  # not the same person before
     still = TruthFrame(t=1.0 + dt, seq=16, people=(_person(7, body, np.zeros_like(body)),))
     assert sampled_truth_angles(TruthFrame(t=1.0, seq=15, people=(_person(7, body, np.zeros_like(body)),)), still) == []
+
+
+def _board(edge_x: float) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """A board 2.5 m in front of the leg hiding all left of ``edge_x`` (in line with x = 1.6·edge_x at the leg)."""
+    return (-0.5, -1.55, 0.0), (edge_x, -1.45, 1.6)
+
+
+@pytest.mark.parametrize("edge_x", [0.01875, 0.0])  # all but 2–3 cm of the shoe hidden; half of it
+def test_a_shoe_seen_on_a_sliver_or_half_is_not_measured(cal: DepthCalibration, edge_x: float,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    fine = FineDepth(cal)
+    fine.set_frame(_render(cal, [LEG, SHOE, _board(edge_x)]))
+    q = _leg_points(fine)
+    assert find_feet(q, fine) == []  # not measured …
+    monkeypatch.setattr(depth_parts, "MIN_SHOE_SEEN_M2", 0.0)
+    monkeypatch.setattr(depth_parts, "HIDDEN_SHOE_SEEN_M2", 0.0)
+    seen = find_feet(q, fine)
+    assert len(seen) == 1 and float(seen[0][0]) > 0.02  # … where it would be put off its middle
+
+
+def test_a_shoe_seen_on_little_is_measured_in_the_open_not_beside_something_nearer(cal: DepthCalibration) -> None:
+    # seen toe-on, a whole 26 × 10 × 8 cm shoe shows 0.0135 m²: more than MIN_SHOE_SEEN_M2, less than
+    # HIDDEN_SHOE_SEEN_M2, so it is measured only when nothing nearer fills its surroundings (beside a board
+    # that leaves it whole, it is left out too: the rule's price)
+    fine = FineDepth(cal)
+    fine.set_frame(_render(cal, [LEG, SHOE]))
+    assert len(find_feet(_leg_points(fine), fine)) == 1
+    fine.set_frame(_render(cal, [LEG, SHOE, _board(-0.03)]))
+    assert find_feet(_leg_points(fine), fine) == []
+
+
+def test_a_foot_is_reported_from_its_first_frame_a_hand_from_its_second() -> None:
+    tracks = LimbTracker(gate_m=0.3, steady_m=0.1, confirm_frames=2, steady_frames=3, memory_frames=3,
+                         consistent_deg=20.0, min_speed=0.5, confirm_by_part={"foot": 1})
+    foot, hand = np.array([0.0, 0.0, 0.03]), np.array([0.4, 0.0, 1.2])
+    assert [slot for slot, _, _ in tracks.update(0, "foot", [foot], 0.0, born=True)] == [0]
+    assert tracks.update(0, "hand", [hand], 0.0, born=True) == []
+    assert len(tracks.update(0, "hand", [hand], 1 / 15, born=False)) == 1
