@@ -9,6 +9,8 @@
   wrench, the SIMBICON trick).
 - Ankle: the stance ankle's target pitches/rolls by ``ankle_gain``·Δd to move the centre of pressure
   under the displaced body.
+- Step timing: staggering, the clip plays faster while the body heads toward the stance foot's side
+  (``hurried_rate``).
 
 Everything here is pure numpy on stage-frame quantities; the character applies the results. Source-frame
 axes of the body (DeepMimic, Y up): x forward, y up, z to the right.
@@ -88,6 +90,15 @@ def ankle_rotation(d_fwd: float, d_right: float, gain: float, gain_coronal: floa
     a_sag = float(np.clip(gain * d_fwd, -limit, limit))
     a_cor = float(np.clip((gain if gain_coronal is None else gain_coronal) * d_right, -limit, limit))
     return quat_exp(-RIGHT * a_sag + FORWARD * a_cor)
+
+
+def hurried_rate(side: float, stance_left: bool, hurry: float, limit: float) -> float:
+    """How fast the clip should play (1: as recorded) with the sideways capture offset ``side`` (m, + right):
+    toward the stance foot's side, where the swing leg would have to step across the stance leg, faster by
+    ``hurry`` per metre (at most ``limit``): that step lands sooner, and the leg on the side the body goes to
+    steps out sooner."""
+    inward = -side if stance_left else side
+    return min(1.0 + hurry * max(inward, 0.0), limit)
 
 
 def orientation_torque(desired: np.ndarray, actual: np.ndarray, omega: np.ndarray, kp: float, kd: float,

@@ -13,7 +13,10 @@ loop continues from where the character is, no snapping back). Joint targets ble
 the pose the character is in whenever a new clip starts; after a get-up the walk starts at the frame of
 the supporting foot's stance with the feet closest together, blending over only ``spec.walk_in_blend_s``
 (lingering in the get-up's crouch made it fall again), with ``walk_in_assist`` × the pelvis torque limit for
-``walk_in_s``; foot placement ignores being slower than the clip beyond ``SLOW_MS``. Balance: ``sim.articulated.balance``;
+``walk_in_s``; foot placement ignores being slower than the clip beyond ``SLOW_MS``. Staggering after a push,
+the stance hip is stiffer (``stagger_stance_hip_gain``) and the clip plays faster while the capture point is
+toward the stance foot's side (``stagger_hurry``: the crossing step lands sooner, the leg on the side the body
+goes to steps out sooner). Balance: ``sim.articulated.balance``;
 bounded root help: ``sim.articulated.assist``. Targets, balance and states update at ``spec.control_hz``
 (every physics step while limp, so joint limits are watched closely).
 """
@@ -104,6 +107,7 @@ class ArticulatedCharacter:
         self._torques: list[tuple[int, list[float]]] = []  # (pybullet link, world torque), re-applied each step
         self._forces: list[tuple[int, list[float], tuple[float, float, float]]] = []  # (link, force, at)
         self.load = 0.0
+        self._rate = 1.0  # clip seconds per second (faster while hurrying a crossing step)
         self._stance_left = False
         self._dd = np.zeros(2)
         self._dv = np.zeros(2)
@@ -241,7 +245,7 @@ class ArticulatedCharacter:
         """
         self.t += dt
         self._state_t += dt
-        self._clip_t += dt
+        self._clip_t += dt * self._rate
         self._since += dt
         limp = self.state in (CharacterState.FALL, CharacterState.LIE)  # limits are watched every step
         if self._cmd is None or limp or self._since >= 1.0 / self.spec.control_hz - 1e-9:
@@ -263,6 +267,7 @@ class ArticulatedCharacter:
         return min(1.0, (self.t - self._walk_started) / self.spec.walk_in_s)
 
     def _update(self, dt: float) -> None:
+        self._rate = 1.0
         if self.ref.clip.loop and self._clip_t >= self.ref.duration:
             self._clip_t -= self.ref.duration
             self._reanchor_walk()
@@ -293,7 +298,7 @@ class ArticulatedCharacter:
         else:  # only what balance changed needs clamping (the clip's own frames are inside the limits)
             for k in self._modified:
                 targets[k] = self.tracker.limits.clamp_one(targets[k], k)
-        omegas = r.omegas
+        omegas = r.omegas * self._rate  # the clip plays at _rate: so do its joint velocities
         if self.state in (CharacterState.FALL, CharacterState.LIE):
             scale *= self.spec.ragdoll_gain
             # limp, but a joint beyond its limits (thrown there by the fall) meets a stop: driven back to
@@ -344,6 +349,9 @@ class ArticulatedCharacter:
         h = max(float(root[2] - ankle[2]), 0.3)
         self.load = float(np.linalg.norm(dd + dv * math.sqrt(h / _G))) / _REACH_M
         self._dd, self._dv, self._heading = dd, dv, heading
+        if self._staggering():
+            self._rate = bal.hurried_rate(float(dd[1] + dv[1] * math.sqrt(h / _G)), stance_left, s.stagger_hurry,
+                                          s.stagger_hurry_max)
         targets = r.rots.copy()
         k_sw = self._drv_pos[swing_hip]
         # slower than the clip (walking off from a stand) by more than a deficit of SLOW_MS: shorter steps
@@ -356,7 +364,7 @@ class ArticulatedCharacter:
         targets[k_sw] = q1.mul(q1.conj(orn), world)
         self._modified.append(k_sw)
         k_st = self._drv_pos[stance_hip]
-        scale[k_st] = s.stance_hip_gain
+        scale[k_st] = s.stagger_stance_hip_gain if self._staggering() else s.stance_hip_gain
         k_an = self._drv_pos[stance_foot]
         if s.ankle_gain > 0 or s.ankle_gain_coronal > 0:
             turn = bal.ankle_rotation(dd[0], dd[1], s.ankle_gain, s.ankle_gain_coronal)
@@ -364,6 +372,11 @@ class ArticulatedCharacter:
             self._modified.append(k_an)
         torso = bal.orientation_torque(desired_root, orn, omega, s.torso_kp, s.torso_kd)
         return targets, bal.clamp_norm(torso, s.gains("hip")[2])
+
+    def _staggering(self) -> bool:
+        """Taking a push while walking (the stagger strategies are for that, not for walking off from a
+        stand after a get-up, which has its own help: ``walk_in_*``)."""
+        return self.state == CharacterState.STAGGER and self.ref is self.walk and self._walk_in() >= 1.0
 
     def _assist(self, r: ReferencePose, root: np.ndarray, orn: np.ndarray, omega: np.ndarray,
                 desired_root: np.ndarray) -> None:
