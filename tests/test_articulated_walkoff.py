@@ -6,6 +6,7 @@ import numpy as np
 import pybullet as p
 import pytest
 
+from sim.articulated import balance as bal
 from sim.articulated.character import ArticulatedCharacter
 from sim.articulated.skeleton import deepmimic_humanoid
 from sim.articulated.spec import ArticulatedSpec
@@ -24,13 +25,16 @@ def _until(client: int, ch: ArticulatedCharacter, seconds: float, done: list[Cha
     return False
 
 
-@pytest.mark.parametrize("side", [False, True])
-def test_walks_on_after_getting_up(client: int, side: bool) -> None:
+# heading +x: pushed forward / to its left it falls face down, pushed back it falls face up
+@pytest.mark.parametrize(("force", "face_up"), [((600.0, 0.0, 0.0), False), ((0.0, 600.0, 0.0), False),
+                                                ((-600.0, 0.0, 0.0), True)])
+def test_walks_on_after_getting_up(client: int, force: tuple[float, float, float], face_up: bool) -> None:
     ch = ArticulatedCharacter(client, deepmimic_humanoid(), ArticulatedSpec(), None, (0.0, 0.0), 0.0)
     assert not _until(client, ch, 2.0, list(DOWN))
-    ch.push("root", (0.0, 600.0, 0.0) if side else (600.0, 0.0, 0.0), 0.2)  # heading +x: forward / to its left
+    ch.push("root", force, 0.2)
     assert _until(client, ch, 3.0, [CharacterState.FALL])
     assert _until(client, ch, 10.0, [CharacterState.WALK]) and ch.getups == 1
+    assert ch.getup_face_up is face_up
     start = ch.root()[0].copy()
     fell_again = _until(client, ch, 6.0, list(DOWN))
     assert not fell_again, f"fell again {ch.t:.2f} s into the run"
@@ -39,6 +43,19 @@ def test_walks_on_after_getting_up(client: int, side: bool) -> None:
     s = ch.spec
     assert ch.external_assist_peak_nm <= max(s.getup_assist_torque_max_nm,
                                              s.assist_torque_max_nm * s.walk_in_assist) + 1e-6
+    # … and the get-up's force: lift and (face up) the root held over the feet, each within its own limit
+    assert ch.external_assist_peak_n <= float(np.hypot(s.getup_assist_force_max_n, s.getup_place_force_n)) + 1e-6
+
+
+def test_face_up_get_up_ends_standing_over_its_feet(client: int) -> None:
+    """The face-up get-up clip ends upright at 0.84 m with the feet under the pelvis; tracked without the root
+    held over the feet the body pivoted forward over them and ended at 0.74 m leaning ~20° forward."""
+    ch = ArticulatedCharacter(client, deepmimic_humanoid(), ArticulatedSpec(), None, (0.0, 0.0), 0.0)
+    assert not _until(client, ch, 2.0, list(DOWN))
+    ch.push("root", (-600.0, 0.0, 0.0), 0.2)
+    assert _until(client, ch, 13.0, [CharacterState.WALK]) and ch.getup_face_up
+    root, orn = ch.root()
+    assert root[2] > 0.8 and np.degrees(bal.tilt_of(orn)) < 12.0
 
 
 def test_walk_in_fields_are_checked() -> None:
@@ -46,5 +63,9 @@ def test_walk_in_fields_are_checked() -> None:
         ArticulatedSpec(walk_in_blend_s=-0.1)
     with pytest.raises(ValueError, match="^getup_grace_s"):
         ArticulatedSpec(getup_grace_s=0.0)
+    with pytest.raises(ValueError, match="^getup_place_force_n"):
+        ArticulatedSpec(getup_place_force_n=-1.0)
+    with pytest.raises(ValueError, match="^getup_place_tilt_deg"):
+        ArticulatedSpec(getup_place_tilt_deg=0.0)
     with pytest.raises(ValueError, match="^ankle_gain_coronal"):
         ArticulatedSpec(ankle_gain_coronal=-1.0)

@@ -53,18 +53,24 @@ def speed_help(dv: np.ndarray, heading: float, limit: float) -> np.ndarray:
 
 def root_help(s: ArticulatedSpec, state: CharacterState, walk_in: bool, feet: bool, desired: np.ndarray,
               orn: np.ndarray, omega: np.ndarray, dd: np.ndarray, dv: np.ndarray, heading: float,
-              height: tuple[float, float, float]) -> tuple[np.ndarray | None, np.ndarray | None]:
+              height: tuple[float, float, float],
+              rising: tuple[np.ndarray, np.ndarray, float] | None = None,
+              after_face_up: bool = False) -> tuple[np.ndarray | None, np.ndarray | None]:
     """(world torque, world force) on the root for this state, or None for each that is off. ``walk_in``:
     walking off from a stand (after a get-up), helped ``walk_in_assist`` times harder; ``feet``: the
-    skeleton has feet (placement help); ``height``: (clip root height, root height, root vertical speed)."""
+    skeleton has feet (placement help); ``height``: (clip root height, root height, root vertical speed);
+    ``rising``: standing up, (place error, speed error, heading) of the root over the feet vs the clip
+    (``sim.articulated.getup.root_offset``), held with at most ``getup_place_force_n`` horizontally;
+    ``after_face_up``: the walk-in follows the face-up get-up (speed help ``walk_in_force_faceup_n``)."""
     torque: np.ndarray | None = None
     force: np.ndarray | None = None
     if state in (CharacterState.WALK, CharacterState.STAGGER):
         boost = s.walk_in_assist if walk_in else 1.0
         if s.assist_torque_max_nm > 0:
             torque = orientation_help(desired, orn, omega, ASSIST_KP, s.assist_torque_max_nm * boost)
-        if feet and walk_in and s.walk_in_force_n > 0:  # up to the clip's speed
-            force = speed_help(dv, heading, s.walk_in_force_n)
+        speed_limit = s.walk_in_force_faceup_n if after_face_up else s.walk_in_force_n
+        if feet and walk_in and speed_limit > 0:  # up to the clip's speed
+            force = speed_help(dv, heading, speed_limit)
         elif s.assist_force_max_n > 0 and feet:
             force = placement_help(dd, dv, heading, s.assist_force_max_n)
     elif state == CharacterState.STAND_UP:
@@ -73,4 +79,7 @@ def root_help(s: ArticulatedSpec, state: CharacterState, walk_in: bool, feet: bo
         if s.getup_assist_force_max_n > 0:
             z_des, z, vz = height
             force = np.array([0.0, 0.0, lift_help(z_des, z, vz, s.getup_assist_force_max_n)])
+        if rising is not None and s.getup_place_force_n > 0:
+            place = placement_help(rising[0], rising[1], rising[2], s.getup_place_force_n)
+            force = place if force is None else force + place
     return torque, force

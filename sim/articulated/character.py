@@ -13,7 +13,8 @@ loop continues from where the character is, no snapping back). Joint targets ble
 the pose the character is in whenever a new clip starts; after a get-up the walk starts at the frame of
 the supporting foot's stance with the feet closest together, blending over only ``spec.walk_in_blend_s``
 (lingering in the get-up's crouch made it fall again), with ``walk_in_assist`` × the pelvis torque limit for
-``walk_in_s``; foot placement ignores being slower than the clip beyond ``SLOW_MS``. Staggering after a push,
+``walk_in_s`` (and, after the face-up get-up, a speed help: ``walk_in_force_faceup_n``); rising from the
+face-up get-up the root is held over the feet as in the clip (``sim.articulated.getup``); foot placement ignores being slower than the clip beyond ``SLOW_MS``. Staggering after a push,
 the stance hip is stiffer (``stagger_stance_hip_gain``) and the clip plays faster while the capture point is
 toward the stance foot's side (``stagger_hurry``: the crossing step lands sooner, the leg on the side the body
 goes to steps out sooner). Balance: ``sim.articulated.balance``;
@@ -29,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
-from sim.articulated import assist
+from sim.articulated import assist, getup
 from sim.articulated import balance as bal
 from sim.articulated import quat1 as q1
 from sim.articulated.build import build_multibody, source_to_stage
@@ -74,8 +75,6 @@ class ArticulatedCharacter:
         self.spec = spec
         self._up = source_to_stage(skeleton)
         self.walk = MotionReference(clip or MotionClip.load(pybullet_motion_path(spec.walk_clip)), skeleton)
-        self._getup_up: MotionReference | None = None
-        self._getup_down: MotionReference | None = None
         self.ref = self.walk
         self.driven = self.walk.driven
         self._feet = (skeleton.foot("right"), skeleton.foot("left")) if any(x.foot for x in skeleton.links) else None
@@ -89,6 +88,8 @@ class ArticulatedCharacter:
                                     (float(orn[0]), float(orn[1]), float(orn[2]), float(orn[3])))
         self.tracker = JointTracker(client, self.body, skeleton, spec, self.driven)
         self.walk.limit(self.tracker.limits.clamp)  # clip frames inside the joint limits, once
+        self._getups = getup.GetUpClips(skeleton, spec, self.tracker.limits)
+        self.getup_face_up: bool | None = None  # the last get-up started lying face up (None: none yet)
         self.readout = BodyReadout(client, self.body, skeleton)
         self._set_pose(r0, root, orn)
         self.state = CharacterState.WALK
@@ -195,8 +196,8 @@ class ArticulatedCharacter:
             self.falls += 1
         if state == CharacterState.STAND_UP:
             _, orn = self.root()
-            up = bal.face_up(orn)
-            self.ref = self._getup(up)
+            self.getup_face_up = bal.face_up(orn)
+            self.ref = self._getups.clip(self.getup_face_up)
             r0 = self.ref.sample(0.0)
             self._anchor_yaw = (bal.lying_heading_of(orn)
                                 - bal.lying_heading_of(q1.mul(self._up, r0.root_rot)))
@@ -208,19 +209,6 @@ class ArticulatedCharacter:
             on_left = self._support_left()
             self._start_clip(self.spec.walk_in_blend_s, self.walk.feet_together_t[1 if on_left else 0])
             self._walk_started = self.t
-
-    def _getup(self, face_up: bool) -> MotionReference:
-        if face_up:
-            if self._getup_up is None:
-                self._getup_up = MotionReference(
-                    MotionClip.load(pybullet_motion_path(self.spec.getup_faceup_clip)), self.skeleton
-                ).limit(self.tracker.limits.clamp)
-            return self._getup_up
-        if self._getup_down is None:
-            self._getup_down = MotionReference(
-                MotionClip.load(pybullet_motion_path(self.spec.getup_facedown_clip)), self.skeleton
-            ).limit(self.tracker.limits.clamp)
-        return self._getup_down
 
     def steer(self, heading: float | None) -> None:
         """Walk toward the stage yaw ``heading`` (turning at most ``TURN_RATE``); None: follow the clip."""
@@ -381,9 +369,13 @@ class ArticulatedCharacter:
     def _assist(self, r: ReferencePose, root: np.ndarray, orn: np.ndarray, omega: np.ndarray,
                 desired_root: np.ndarray) -> None:
         vel, _ = self.readout.base_velocity()
+        rising = None  # rising from the face-up get-up's crouch: the root over the feet as in the clip
+        if self.state == CharacterState.STAND_UP and self.getup_face_up and self._feet is not None:
+            rising = getup.root_offset(self.readout, self._feet, r, desired_root, self.spec.getup_place_tilt_deg)
         torque, force = assist.root_help(
             self.spec, self.state, self._walk_in() < 1.0, self._feet is not None, desired_root, orn, omega,
-            self._dd, self._dv, self._heading, (float(q1.rot(self._up, r.root_pos)[2]), float(root[2]), float(vel[2])))
+            self._dd, self._dv, self._heading, (float(q1.rot(self._up, r.root_pos)[2]), float(root[2]), float(vel[2])),
+            rising, bool(self.getup_face_up))
         if torque is not None:
             self._torques.append((-1, torque.tolist()))
             self.external_assist_peak_nm = max(self.external_assist_peak_nm, float(np.linalg.norm(torque)))
