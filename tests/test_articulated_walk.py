@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pybullet as p
-import pytest
 
 from sim.articulated.character import ArticulatedCharacter
 from sim.articulated.skeleton import ArticulatedSkeleton
@@ -107,7 +106,6 @@ def test_stable_pd_tracks_better_than_explicit_pd_at_the_seed_gains(skeleton: Ar
     assert errors["explicit"] > 2.0 * errors["stable"]
 
 
-@pytest.mark.slow
 def test_walks_thirty_seconds(client: int, skeleton: ArticulatedSkeleton) -> None:
     ch, trace = walk(client, skeleton, 30.0)
     assert ch.falls == 0 and min(trace["up"]) == 1.0
