@@ -34,6 +34,7 @@ from sim.articulated import assist, getup
 from sim.articulated import balance as bal
 from sim.articulated import quat1 as q1
 from sim.articulated.build import build_multibody, source_to_stage
+from sim.articulated.joint_stop import JointStops
 from sim.articulated.readout import BodyReadout
 from sim.articulated.reference import MotionReference, ReferencePose
 from sim.articulated.skeleton import ArticulatedSkeleton
@@ -87,6 +88,7 @@ class ArticulatedCharacter:
         self.body = build_multibody(client, skeleton, (float(root[0]), float(root[1]), float(root[2])),
                                     (float(orn[0]), float(orn[1]), float(orn[2]), float(orn[3])))
         self.tracker = JointTracker(client, self.body, skeleton, spec, self.driven)
+        self.stops = JointStops(client, self.body, skeleton, self.tracker, STOP_GAIN)  # ball/universal limits
         self.walk.limit(self.tracker.limits.clamp)  # clip frames inside the joint limits, once
         self._getups = getup.GetUpClips(skeleton, spec, self.tracker.limits)
         self.getup_face_up: bool | None = None  # the last get-up started lying face up (None: none yet)
@@ -241,6 +243,8 @@ class ArticulatedCharacter:
             self._since = 0.0
         assert self._cmd is not None
         self.tracker.issue(self._cmd)
+        if self.state != CharacterState.STAND_UP:  # joint stops (sim.articulated.joint_stop: why not there)
+            self.stops.apply(dt, limp, self.state in (CharacterState.WALK, CharacterState.STAGGER))
         c = self.client
         for link, torque in self._torques:
             p.applyExternalTorque(self.body, link, torque, p.WORLD_FRAME, physicsClientId=c)
