@@ -235,3 +235,42 @@ def _middle_of(pts: np.ndarray, sel: np.ndarray, axis: int) -> np.ndarray:
     cand = pts[sel]
     order = np.argsort(cand[:, axis], kind="stable")
     return np.asarray(cand[order[len(order) // 2]])
+
+
+def split_side_by_side(q: np.ndarray, separation: float, depth: int = 0) -> list[np.ndarray]:
+    """A blob that is two people close together (side by side, or one behind the other): 2-means of
+    its points above the knees (0.65 m) on the floor plane, started from the two points farthest
+    apart, gives two halves, each with a fifth of those points or more, whose middles are at least
+    ``separation`` apart (one person's halves are ~0.2–0.3 m apart), each standing on the floor (an
+    arm held out is no person). Split again per half (up to 4)."""
+    upper = q[q[:, 2] > 0.65, :2]
+    if depth >= 2 or len(upper) < 40:
+        return [q]
+    sample = upper[:: max(1, len(upper) // 200)]
+    if float(np.hypot(*np.ptp(sample, axis=0))) < separation:
+        return [q]  # two halves' middles lie within the points' box: no two of them that far apart
+    spread = sample - sample.sum(axis=0) / len(sample)
+    if float(np.einsum("ij,ij->", spread, spread)) / len(sample) < 0.16 * separation * separation:
+        return [q]  # two halves (shares p, 1 - p ≥ 0.2) that far apart spread the points by ≥ p(1 - p)·separation²
+    a = sample[int(np.argmax(np.add.reduce(np.square(spread), axis=1)))]
+    b = sample[int(np.argmax(np.add.reduce(np.square(sample - a), axis=1)))]
+    near_a = np.ones(len(sample), dtype=bool)
+    total, n = sample.sum(axis=0), len(sample)
+    for _ in range(6):
+        was = near_a
+        near_a = sample @ (b - a) < 0.5 * (float(b @ b) - float(a @ a))  # nearer a than b
+        k = int(np.count_nonzero(near_a))
+        if k == 0 or k == n:
+            return [q]
+        sum_a = sample[near_a].sum(axis=0)
+        a, b = sum_a / k, (total - sum_a) / (n - k)
+        if bool((was == near_a).all()):
+            break
+    share = k / n
+    if min(share, 1 - share) < 0.2 or math.sqrt(float((a - b).dot(a - b))) < separation:
+        return [q]
+    side = np.add.reduce(np.square(q[:, :2] - a), axis=1) < np.add.reduce(np.square(q[:, :2] - b), axis=1)
+    for half in (q[side], q[~side]):
+        if np.count_nonzero(half[:, 2] < 0.5) < 5:
+            return [q]
+    return [*split_side_by_side(q[side], separation, depth + 1), *split_side_by_side(q[~side], separation, depth + 1)]
