@@ -25,7 +25,6 @@ bounded root help: ``sim.articulated.assist``. Targets, balance and states updat
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pybullet as p
@@ -35,6 +34,7 @@ from sim.articulated import balance as bal
 from sim.articulated import quat1 as q1
 from sim.articulated.build import build_multibody, source_to_stage
 from sim.articulated.joint_stop import JointStops
+from sim.articulated.pushes import LinkPushes
 from sim.articulated.readout import BodyReadout
 from sim.articulated.reference import MotionReference, ReferencePose
 from sim.articulated.skeleton import ArticulatedSkeleton
@@ -56,13 +56,6 @@ _G = 9.81
 
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
-@dataclass
-class _Push:
-    link: int  # skeleton link index
-    force: np.ndarray
-    remaining: float
 
 
 class ArticulatedCharacter:
@@ -103,7 +96,7 @@ class ArticulatedCharacter:
         self._blend_from: np.ndarray | None = None
         self._blend_t = 0.0
         self._blend_s = BLEND_S
-        self._pushes: list[_Push] = []
+        self._pushes = LinkPushes(client, self.body, self.readout)
         self._since = 0.0
         self._walk_started = -1.0  # when it last started walking from a stand (-1: it was placed walking)
         self._cmd: PDCommand | None = None
@@ -173,7 +166,7 @@ class ArticulatedCharacter:
         """Push ``link`` (skeleton index or name) with the world-frame ``force`` (N) for ``duration`` s."""
         i = self.skeleton.index(link) if isinstance(link, str) else int(link)
         f = np.asarray(force, dtype=float)
-        self._pushes.append(_Push(i, f, float(duration)))
+        self._pushes.add(i, f, float(duration))
         if float(np.linalg.norm(f)) * duration >= self.spec.push_threshold_ns:
             self._enter(CharacterState.STAGGER, only_from=(CharacterState.WALK,))
 
@@ -250,7 +243,7 @@ class ArticulatedCharacter:
             p.applyExternalTorque(self.body, link, torque, p.WORLD_FRAME, physicsClientId=c)
         for link, force, at in self._forces:
             p.applyExternalForce(self.body, link, force, at, p.WORLD_FRAME, physicsClientId=c)
-        self._apply_pushes(dt)
+        self.last_push_force_n = self._pushes.apply(dt)
 
     def _walk_in(self) -> float:
         """How far into walking off from a stand (0 just started … 1 done, or not walking off)."""
@@ -386,20 +379,6 @@ class ArticulatedCharacter:
         if force is not None:
             self._forces.append((-1, force.tolist(), self.readout.base_com()))
             self.external_assist_peak_n = max(self.external_assist_peak_n, float(np.linalg.norm(force)))
-
-    def _apply_pushes(self, dt: float) -> None:
-        if not self._pushes:
-            self.last_push_force_n = 0.0
-            return
-        c = self.client
-        self.last_push_force_n = 0.0
-        for push in self._pushes:
-            j = push.link - 1
-            pos = self.readout.base_com() if j < 0 else p.getLinkState(self.body, j, physicsClientId=c)[0]
-            p.applyExternalForce(self.body, j, push.force.tolist(), pos, p.WORLD_FRAME, physicsClientId=c)
-            push.remaining -= dt
-            self.last_push_force_n = max(self.last_push_force_n, float(np.linalg.norm(push.force)))
-        self._pushes = [x for x in self._pushes if x.remaining > 1e-9]
 
     def _update_state(self, root: np.ndarray, orn: np.ndarray, dt: float) -> None:
         vel, _ = self.readout.base_velocity()
