@@ -104,3 +104,17 @@ def clean_push(force: Vec3, duration: float, config: WorldConfig) -> tuple[Vec3,
         duration, clamped = config.max_impulse_duration_s, clamped + 1
     safe, cut = _limit(safe, config.max_impulse_ns / duration)
     return safe, duration, clamped + int(cut)
+
+
+def contactors_at(contactors: tuple[SafeContactor, ...], age: float, hold_s: float) -> tuple[SafeContactor, ...]:
+    """The last observation's contactors ``age`` s after it, each moved on at its own velocity; none once
+    they are older than ``hold_s`` (the person is no longer known to be there)."""
+    if not contactors or age > hold_s + 1e-9:
+        return ()
+    if age <= 0.0:
+        return contactors
+    return tuple(
+        SafeContactor(c.person, (c.position[0] + c.velocity[0] * age, c.position[1] + c.velocity[1] * age,
+                                 c.position[2] + c.velocity[2] * age), c.velocity, c.radius, c.half_depth)
+        for c in contactors
+    )

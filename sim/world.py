@@ -38,7 +38,7 @@ from sim.contactors import ContactEpisodes, ContactorPool
 from sim.control import control
 from sim.crowd import STATES, WALK, Crowd
 from sim.frames import Vec3, yaw_quaternion
-from sim.inputs import SafeContactor, SafeImpulse, clean_observation, clean_push
+from sim.inputs import SafeContactor, SafeImpulse, clean_observation, clean_push, contactors_at
 from sim.physics import open_client
 from sim.pushes import PAD_PERSON, Push, axis_offset, finished, tick_forces
 from sim.quadruped.herd import Quadrupeds, TerrainConfig
@@ -174,21 +174,16 @@ class World:
         Reported as a ``ContactEvent`` of person ``PAD_PERSON`` when it ends, like a pad's (not for an
         articulated character: its push acts on the link nearest ``at``, and makes it stagger).
         """
-        if name in self.articulated:
-            cleaned = clean_push(force, duration, self.config)
-            if cleaned is None or len(at) != 3 or not all(math.isfinite(v) and abs(v) <= _REACH_M for v in at):
-                self._counts["rejected_inputs"] += 1
-                return
-            self.articulated.strike(name, cleaned[0], cleaned[1], at)
-            return
-        row = self._crowd.index[name]
         push = clean_push(force, duration, self.config)
         if push is None or len(at) != 3 or not all(math.isfinite(v) and abs(v) <= _REACH_M for v in at):
             self._counts["rejected_inputs"] += 1
             return
         force, duration, cut = push
         self._counts["clamped_inputs"] += cut
-        self._pushes.append(Push(row, force, at, duration, duration, self.t))
+        if name in self.articulated:
+            self.articulated.strike(name, force, duration, at)
+            return
+        self._pushes.append(Push(self._crowd.index[name], force, at, duration, duration, self.t))
 
     def step(self, observation: BodyObservation | None, dt: float) -> WorldSnapshot:
         """Advance by ``dt`` seconds of loop time (whole control ticks; the remainder waits)."""
@@ -257,24 +252,12 @@ class World:
             self._pushes.append(Push(row, imp.force, axis_offset(crowd, row, imp.position[2]), imp.duration,
                                      imp.duration, now))
 
-    def _contactors_now(self, t: float) -> tuple[SafeContactor, ...]:
-        age = t - self._contactors_t
-        if not self._contactors or age > self.config.contactor_hold_s + 1e-9:
-            return ()
-        if age <= 0.0:
-            return self._contactors
-        return tuple(
-            SafeContactor(c.person, (c.position[0] + c.velocity[0] * age, c.position[1] + c.velocity[1] * age,
-                                     c.position[2] + c.velocity[2] * age), c.velocity, c.radius, c.half_depth)
-            for c in self._contactors
-        )
-
     # ------------------------------------------------------------------ one control tick
     def _tick(self, events: list[ContactEvent], changes: list[StateChange]) -> None:
         client = self._require_open()
         cfg, crowd = self.config, self._crowd
         t0 = self.t
-        contactors = self._contactors_now(t0)
+        contactors = contactors_at(self._contactors, t0 - self._contactors_t, self.config.contactor_hold_s)
         if len(crowd):
             self._think(t0, contactors, changes)
         self._pool.place(contactors)
