@@ -179,7 +179,8 @@ def cmd_body(args: argparse.Namespace) -> int:
         if link.kind == "hinge":
             limits = f"{link.lower:+.2f}..{link.upper:+.2f} rad"
         elif link.kind in ("ball", "universal"):
-            limits = f"swing {math.degrees(link.swing_limit):.0f}° twist ±{math.degrees(link.twist_limit):.0f}°"
+            limits = (f"swing ±{math.degrees(link.swing_limit):.0f}° twist ±{math.degrees(link.twist_limit):.0f}° "
+                      f"side ±{math.degrees(link.side_limit):.0f}°")
         size = "×".join(f"{v:.3f}" for v in link.size)
         print(f"  {link.name:<16} {part:<12} {link.kind:<9} {link.motion_channel or '-':<15} {link.mass:6.2f} kg "
               f"{link.shape:<7} {size:<20} {limits}".rstrip())

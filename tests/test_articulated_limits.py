@@ -1,86 +1,118 @@
-"""Joint limits are (nearly) never exceeded (issue 9): the ball/universal joints, which pybullet does not
-limit, meet the stops of ``sim.articulated.joint_stop`` in every state."""
+"""Joint limits (issue 9): pybullet itself holds the ball/universal joints inside their limits (the spherical
+joint limit of the URDF the body is loaded from, ``sim.articulated.joint_limit``), in every state; hinges keep
+their ranges; what the character measures as the excess is what the engine limits."""
 
 from __future__ import annotations
 
 import math
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pybullet as p
+import pytest
 
 from sim.articulated import balance as bal
+from sim.articulated.build import urdf_text
 from sim.articulated.character import ArticulatedCharacter
+from sim.articulated.joint_limit import clamp_inside, limit_angles, limit_angles_one, limit_excess
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
 from sim.snapshot import CharacterState
 
 DT = 1.0 / 240.0
-# Bounds on the excess, every joint, every step of a walk, a push, a fall, lying and a get-up, per state.
-# The stops are explicit torques whose stiffness is bounded by the inertia of the links they turn (a stiffer
-# explicit stop goes unstable), so an impact (the fall, the feet catching the floor) can carry a joint briefly
-# past its limit. Measured in this run (with / without the stops):
-#   FALL, LIE (limp: the stops alone hold the joints): 11 deg / 25 deg (the ankles thrown by the fall)
-#   WALK, STAGGER, all but the ankles (whose twist has no stop while walking): 16 / 18 deg (the stance hip)
-#   STAND_UP (no stops, see sim.articulated.joint_stop; the clip's targets are inside): 21 deg (a shoulder)
-LIMP_BOUND_DEG = 15.0
-WALK_BOUND_DEG = 20.0
-GETUP_BOUND_DEG = 25.0
-WALKING = (CharacterState.WALK, CharacterState.STAGGER)
+# Bound on the excess, every joint, every step of a walk, a push, a fall, lying and a get-up. The engine's
+# limits are one-sided constraints that correct a fifth of a violation per step (bullet's default), and the
+# spherical limit's rows act along the child frame's axes, not exactly along the angles it measures, so an
+# impact can carry a joint a few degrees past its limit for a few steps. Measured in this run: 4.5° at worst
+# pushed back (an ankle, falling), 5.8° pushed forward (a knee, falling), under 2.5° while walking,
+# staggering or getting up — against 11–21° with the former explicit stops and 22–42° where they were off.
+BOUND_DEG = 7.0
 
 
-def test_limits_hold_through_a_walk_a_push_a_fall_and_a_get_up(client: int, skeleton: ArticulatedSkeleton) -> None:
+@pytest.mark.parametrize("force", [-600.0, 600.0])  # pushed back: falls face up; forward: face down
+def test_limits_hold_through_a_walk_a_push_a_fall_and_a_get_up(client: int, skeleton: ArticulatedSkeleton,
+                                                               force: float) -> None:
     ch = ArticulatedCharacter(client, skeleton, ArticulatedSpec(), None, (0.0, 0.0), 0.0)
-    ankles = np.array([skeleton.links[i].foot != "" for i in ch.driven])
     worst: dict[str, float] = {}
     states: list[CharacterState] = []
-    for i in range(int(12.0 / DT)):
-        if i == int(1.0 / DT):  # a 0.2 s backward push on the pelvis, 600 N: it falls
+    for i in range(int(10.0 / DT)):
+        if i == int(1.0 / DT):  # a 0.2 s push on the pelvis, 600 N: it falls
             h = bal.heading_of(ch.root()[1])
-            ch.push("root", (-600.0 * math.cos(h), -600.0 * math.sin(h), 0.0), 0.2)
+            ch.push("root", (force * math.cos(h), force * math.sin(h), 0.0), 0.2)
         ch.step_control(DT)
         p.stepSimulation(physicsClientId=client)
         e = ch.tracker.limits.excess(ch.joint_angles())
         assert np.isfinite(e).all()
         assert ch.limit_excess() == float(e.max())
-        if ch.state in WALKING:
-            e = np.where(ankles, 0.0, e)
         for k in np.nonzero(e > 0.0)[0]:
             key = f"{ch.state.name}:{skeleton.links[ch.driven[k]].name}"
             worst[key] = max(worst.get(key, 0.0), math.degrees(float(e[k])))
         if not states or states[-1] != ch.state:
             states.append(ch.state)
-    # the run went through what it claims: walking, pushed, fallen, lying, getting up, walking again
-    order = [CharacterState.WALK, CharacterState.STAGGER, CharacterState.FALL, CharacterState.LIE,
-             CharacterState.STAND_UP, CharacterState.WALK]
+    order = [CharacterState.WALK, CharacterState.FALL, CharacterState.LIE, CharacterState.STAND_UP]
     seen = iter(states)
-    assert all(s in seen for s in order), states  # in this order (later states may follow)
-    assert ch.getups >= 1
+    assert all(s in seen for s in order), states  # it went through what the test claims, in this order
     report = {k: round(v, 1) for k, v in worst.items()}
-    for key, deg in worst.items():
-        state = key.split(":")[0]
-        bound = {"FALL": LIMP_BOUND_DEG, "LIE": LIMP_BOUND_DEG, "STAND_UP": GETUP_BOUND_DEG}.get(state, WALK_BOUND_DEG)
-        assert deg <= bound, (key, report)
+    assert all(deg <= BOUND_DEG for deg in worst.values()), sorted(report.items(), key=lambda kv: -kv[1])
 
 
-def test_a_stop_pushes_back_only_outside_the_limits(client: int, skeleton: ArticulatedSkeleton) -> None:
-    ch = ArticulatedCharacter(client, skeleton, ArticulatedSpec(), None, (0.0, 0.0), 0.0)
-    ch.stops.apply(DT, False, False)
-    assert ch.stops.last_torque_nm == 0.0  # the clip's first pose is inside the limits
-    k = ch.driven.index(skeleton.index("left_ankle"))
-    lim = ch.tracker.limits
-    twist = lim.twist_limit[k] + math.radians(15.0)  # 15 deg past the twist limit about the shin
-    a = lim.twist_axis[k]
-    q = np.concatenate([a * math.sin(twist / 2), [math.cos(twist / 2)]])
-    p.resetJointStateMultiDof(ch.body, ch.tracker.indices[k], q.tolist(), [0.0, 0.0, 0.0], physicsClientId=client)
-    assert math.degrees(ch.limit_excess()) > 14.0
-    ch.stops.apply(DT, False, False)
-    assert ch.stops.last_torque_nm > 0.0
-    # left alone (no PD, no gravity on the foot's twist), the stop turns the ankle back toward its range
+def _one_joint_body(client: int, ranges: tuple[float, float, float]) -> int:
+    """A fixed base and one free link on a spherical joint limited to ``ranges`` (x, y, z), as urdf_text
+    writes limits."""
+    text = (f'<robot name="j"><link name="a"><inertial><mass value="0"/><inertia ixx="0.1" iyy="0.1" izz="0.1" '
+            f'ixy="0" ixz="0" iyz="0"/></inertial></link><link name="b"><inertial><origin xyz="0 0 0.2"/>'
+            f'<mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
+            f'</link><joint name="j" type="spherical"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+            f'<limit lower="{ranges[0]}" upper="{ranges[1]}" twist="{ranges[2]}" effort="1000"/></joint></robot>')
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "j.urdf"
+        path.write_text(text)
+        body = int(p.loadURDF(str(path), useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE,
+                              physicsClientId=client))
+    p.setJointMotorControlMultiDof(body, 0, p.POSITION_CONTROL, targetPosition=[0, 0, 0, 1], force=[0, 0, 0],
+                                   physicsClientId=client)
     p.setGravity(0, 0, 0, physicsClientId=client)
-    p.setJointMotorControlMultiDofArray(ch.body, ch.tracker.indices, p.POSITION_CONTROL,
-                                       forces=[[0.0]] * len(ch.tracker.indices), physicsClientId=client)
-    before = ch.limit_excess()
-    for _ in range(24):
-        ch.stops.apply(DT, False, False)
-        p.stepSimulation(physicsClientId=client)
-    assert ch.limit_excess() < 0.5 * before
+    return body
+
+
+def test_the_engine_stops_a_joint_at_its_range_about_each_axis(client: int) -> None:
+    ranges = (0.5, 0.8, 0.3)
+    body = _one_joint_body(client, ranges)
+    for axis, limit in zip(np.eye(3), ranges, strict=True):  # a steady torque about each axis
+        p.resetJointStateMultiDof(body, 0, [0, 0, 0, 1], [0, 0, 0], physicsClientId=client)
+        for _ in range(480):
+            p.applyExternalTorque(body, 0, (3.0 * axis).tolist(), p.WORLD_FRAME, physicsClientId=client)
+            p.stepSimulation(physicsClientId=client)
+        q = np.array(p.getJointStateMultiDof(body, 0, physicsClientId=client)[0])
+        angle = 2.0 * math.acos(min(1.0, abs(float(q[3]))))
+        assert angle == pytest.approx(limit, abs=0.01)  # free, 3 N·m for 2 s would turn it far beyond
+
+
+def test_the_measured_excess_is_the_engines(client: int) -> None:
+    """On random rotations, the engine pushes back exactly those ``limit_excess`` calls outside, and a
+    rotation ``clamp_inside`` brought in is left alone."""
+    ranges = np.array([0.5, 0.8, 0.3])
+    body = _one_joint_body(client, (0.5, 0.8, 0.3))
+    rng = np.random.default_rng(1)
+    axes = rng.normal(size=(300, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    half = rng.uniform(0.0, 0.7, size=300)
+    rots = np.concatenate([axes * np.sin(half)[:, None], np.cos(half)[:, None]], axis=1)
+    outside = limit_excess(rots, np.tile(ranges, (300, 1))) > 0.0
+    assert 50 < outside.sum() < 250  # both kinds are tried
+    clamped = clamp_inside(rots, np.tile(ranges, (300, 1)))
+    assert limit_excess(clamped, np.tile(ranges, (300, 1))).max() == 0.0
+    for q, out, inside in zip(rots, outside, clamped, strict=True):
+        assert np.allclose(limit_angles_one(q), limit_angles(q[None])[0], atol=1e-9)
+        for rot, expect_push in ((q, out), (inside, False)):
+            p.resetJointStateMultiDof(body, 0, rot.tolist(), [0, 0, 0], physicsClientId=client)
+            p.stepSimulation(physicsClientId=client)
+            moved = float(np.linalg.norm(p.getJointStateMultiDof(body, 0, physicsClientId=client)[1])) > 1e-6
+            assert moved == bool(expect_push)
+
+
+def test_the_body_carries_each_joints_limit(skeleton: ArticulatedSkeleton) -> None:
+    text = urdf_text(skeleton)
+    assert text.count('type="spherical"') == sum(link.kind in ("ball", "universal") for link in skeleton.links)
+    assert text.count(" twist=") == text.count('type="spherical"')

@@ -17,7 +17,7 @@
 - joint kinds (the seed's §3.2): ball at the first spine joint ("chest" channel) and the neck, universal at
   the hips, ankles and shoulders, hinge at the knees (0 … 2.5 rad) and elbows (−2.7 … 0 rad) about the
   character's left; every other joint (extra spine joints, clavicles, head, toes, hands) is fixed.
-  Swing/twist limits of ball and universal joints are the DeepMimic humanoid's (``HUMANOID_JOINTS``).
+  Swing/twist/side limits of ball and universal joints are the DeepMimic humanoid's (``HUMANOID_JOINTS``).
 - ``clip``: the motion as a ``MotionClip`` in ``sim.motion.mocap.JOINTS`` order, ready for the same PD
   tracking as a DeepMimic clip. A moving joint's channel is the product of the BVH rotations from just
   below its nearest moving ancestor down to it, so every moving link's orientation is exact; fixed joints
@@ -267,9 +267,9 @@ def _link(motion: BvhMotion, b: int, kids: list[int], offsets: np.ndarray, part:
         lower, upper = _HINGE_LIMITS[part]
         kw = {"axis": (0.0, 0.0, -1.0), "lower": lower, "upper": upper}
     elif kind in ("ball", "universal"):
-        swing, twist = HUMANOID_JOINTS[channel][2:4]
+        swing, twist, side = HUMANOID_JOINTS[channel][2:5]
         kw = {"twist_axis": tuple(float(v) for v in direction), "swing_limit": math.radians(swing),
-              "twist_limit": math.radians(twist)}
+              "twist_limit": math.radians(twist), "side_limit": math.radians(side)}
     foot: Literal["", "right", "left"] = (sides[b] or "right") if part == "foot" and kind != "fixed" else ""
     return ArticulatedLink(
         motion.names[b], parent, kind, offset,  # type: ignore[arg-type]

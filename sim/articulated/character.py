@@ -18,8 +18,8 @@ face-up get-up the root is held over the feet as in the clip (``sim.articulated.
 the stance hip is stiffer (``stagger_stance_hip_gain``) and the clip plays faster while the capture point is
 toward the stance foot's side (``stagger_hurry``: the crossing step lands sooner, the leg on the side the body
 goes to steps out sooner). Balance: ``sim.articulated.balance``;
-bounded root help: ``sim.articulated.assist``. Targets, balance and states update at ``spec.control_hz``
-(every physics step while limp, so joint limits are watched closely).
+bounded root help: ``sim.articulated.assist``. Targets, balance and states update at ``spec.control_hz``.
+Joint limits are pybullet's own constraints in every state (``sim.articulated.build``).
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ from sim.articulated import assist, getup
 from sim.articulated import balance as bal
 from sim.articulated import quat1 as q1
 from sim.articulated.build import build_multibody, source_to_stage
-from sim.articulated.joint_stop import JointStops
 from sim.articulated.pushes import LinkPushes
 from sim.articulated.readout import BodyReadout
 from sim.articulated.reference import MotionReference, ReferencePose
@@ -47,7 +46,6 @@ from sim.snapshot import CharacterState, LinkPose
 
 BLEND_S = 0.4  # s: joint targets blend from the current pose when a clip starts
 YAW_SHARE = 0.2  # the torso control turns toward the clip's heading by this share of the error
-STOP_GAIN = 4.0  # limp joints beyond their limits are driven back at this many times their gains
 TURN_RATE = 0.6  # rad/s: how fast steering turns the clip's frame (1.0 makes it fall: measured)
 SLOW_MS = 0.1  # m/s: foot placement ignores being slower than the clip beyond this (measured: 0 and 0.3 worse)
 _REACH_M = 1.0  # m: capture-point distance from the clip's place over the stance foot at balance load 1
@@ -81,7 +79,6 @@ class ArticulatedCharacter:
         self.body = build_multibody(client, skeleton, (float(root[0]), float(root[1]), float(root[2])),
                                     (float(orn[0]), float(orn[1]), float(orn[2]), float(orn[3])))
         self.tracker = JointTracker(client, self.body, skeleton, spec, self.driven)
-        self.stops = JointStops(client, self.body, skeleton, self.tracker, STOP_GAIN)  # ball/universal limits
         self.walk.limit(self.tracker.limits.clamp)  # clip frames inside the joint limits, once
         self._getups = getup.GetUpClips(skeleton, spec, self.tracker.limits)
         self.getup_face_up: bool | None = None  # the last get-up started lying face up (None: none yet)
@@ -230,14 +227,11 @@ class ArticulatedCharacter:
         self._state_t += dt
         self._clip_t += dt * self._rate
         self._since += dt
-        limp = self.state in (CharacterState.FALL, CharacterState.LIE)  # limits are watched every step
-        if self._cmd is None or limp or self._since >= 1.0 / self.spec.control_hz - 1e-9:
+        if self._cmd is None or self._since >= 1.0 / self.spec.control_hz - 1e-9:
             self._update(self._since)
             self._since = 0.0
         assert self._cmd is not None
         self.tracker.issue(self._cmd)
-        if self.state != CharacterState.STAND_UP:  # joint stops (sim.articulated.joint_stop: why not there)
-            self.stops.apply(dt, limp, self.state in (CharacterState.WALK, CharacterState.STAGGER))
         c = self.client
         for link, torque in self._torques:
             p.applyExternalTorque(self.body, link, torque, p.WORLD_FRAME, physicsClientId=c)
@@ -286,14 +280,6 @@ class ArticulatedCharacter:
         omegas = r.omegas * self._rate  # the clip plays at _rate: so do its joint velocities
         if self.state in (CharacterState.FALL, CharacterState.LIE):
             scale *= self.spec.ragdoll_gain
-            # limp, but a joint beyond its limits (thrown there by the fall) meets a stop: driven back to
-            # the nearest pose inside at STOP_GAIN × its gains and torque limit (bone and ligament, not muscle)
-            now, _ = self.tracker.read()
-            out = self.tracker.limits.excess(now) > 0.0
-            if out.any():
-                targets = np.where(out[:, None], self.tracker.limits.clamp(now), targets)
-                omegas = np.where(out[:, None], 0.0, omegas)
-                scale = np.where(out, STOP_GAIN, scale)
         self._cmd = self.tracker.command(targets, omegas, scale)
         self._assist(r, root, orn, omega_a, desired_root)
         self._update_state(root, orn, dt)

@@ -30,10 +30,11 @@ Conventions (follow them when building one from another source):
 - Joint kinds (the seed's table 3.1): "ball" 3 DOF (pelvis–torso, neck), "universal" 2 DOF (hips, ankles,
   shoulders), "hinge" 1 DOF about ``axis`` (knees, elbows), "fixed" 0 DOF (wrists: a rigid end link).
   In pybullet ball and universal joints are both spherical joints; a universal joint is a ball joint
-  whose twist about ``twist_axis`` (the bone direction) is held inside ``twist_limit`` by the controller.
-- Limits (radians): hinge ``lower`` ≤ angle ≤ ``upper`` about ``axis``; ball/universal: the swing (the
-  rotation that takes ``twist_axis`` to where it points now) at most ``swing_limit``, the twist about
-  ``twist_axis`` within ±``twist_limit``.
+  whose twist about ``twist_axis`` (the bone direction) is held inside ``twist_limit``.
+- Limits (radians): hinge ``lower`` ≤ angle ≤ ``upper`` about ``axis``; ball/universal: the front-back swing
+  within ±``swing_limit``, the twist about the bone (``twist_axis``) within ±``twist_limit`` and the
+  sideways swing within ±``side_limit``, each as pybullet's spherical joint limit measures it
+  (``sim.articulated.joint_limit``; pybullet enforces them).
 - ``motion_channel``: which channel of a source motion drives the joint, by name in
   ``sim.motion.mocap.JOINTS`` ("chest", "right_hip", …), or "" when none does (the joint holds its rest pose).
 - ``gain_group``: which row of the PD gain table applies ("hip", "knee", "ankle", "torso", "neck",
@@ -79,6 +80,7 @@ class ArticulatedLink:
     twist_axis: Vec3 = (0.0, -1.0, 0.0)  # ball/universal: the bone direction, link frame
     swing_limit: float = math.pi
     twist_limit: float = math.pi
+    side_limit: float = math.pi
     motion_channel: str = ""
     gain_group: str = ""
     foot: Literal["", "right", "left"] = ""
@@ -147,20 +149,22 @@ DEEPMIMIC_SCALE = 0.25
 
 # Seed (Lu) joint kinds and limits laid over the URDF, per joint name: (kind, gain group, limits).
 # Hinge limits come from the URDF (knee −3.14..0, elbow 0..3.14). swing/twist in degrees.
-HUMANOID_JOINTS: dict[str, tuple[JointKind, str, float, float]] = {
-    # name: (kind, gain group, swing limit deg, twist limit deg)
-    "chest": ("ball", "torso", 60.0, 45.0),
-    "neck": ("ball", "neck", 60.0, 70.0),
-    "right_hip": ("universal", "hip", 120.0, 25.0),
-    "right_ankle": ("universal", "ankle", 60.0, 20.0),
-    "right_shoulder": ("universal", "shoulder", 170.0, 60.0),
-    "left_hip": ("universal", "hip", 120.0, 25.0),
-    "left_ankle": ("universal", "ankle", 60.0, 20.0),
-    "left_shoulder": ("universal", "shoulder", 170.0, 60.0),
-    "right_knee": ("hinge", "knee", 0.0, 0.0),
-    "left_knee": ("hinge", "knee", 0.0, 0.0),
-    "right_elbow": ("hinge", "elbow", 0.0, 0.0),
-    "left_elbow": ("hinge", "elbow", 0.0, 0.0),
+HUMANOID_JOINTS: dict[str, tuple[JointKind, str, float, float, float]] = {
+    # name: (kind, gain group, swing (front-back) deg, twist (about the bone) deg, side (sideways swing) deg).
+    # Wide enough for every frame of the walk and get-up clips (the get-ups flex the hips to 128°, turn the
+    # shoulders 64° and roll the ankles 37°), and no wider than a person's joints allow by much.
+    "chest": ("ball", "torso", 60.0, 45.0, 40.0),
+    "neck": ("ball", "neck", 60.0, 70.0, 45.0),
+    "right_hip": ("universal", "hip", 135.0, 40.0, 60.0),
+    "right_ankle": ("universal", "ankle", 70.0, 30.0, 40.0),
+    "right_shoulder": ("universal", "shoulder", 170.0, 80.0, 170.0),
+    "left_hip": ("universal", "hip", 135.0, 40.0, 60.0),
+    "left_ankle": ("universal", "ankle", 70.0, 30.0, 40.0),
+    "left_shoulder": ("universal", "shoulder", 170.0, 80.0, 170.0),
+    "right_knee": ("hinge", "knee", 0.0, 0.0, 0.0),
+    "left_knee": ("hinge", "knee", 0.0, 0.0, 0.0),
+    "right_elbow": ("hinge", "elbow", 0.0, 0.0, 0.0),
+    "left_elbow": ("hinge", "elbow", 0.0, 0.0, 0.0),
 }
 
 
@@ -269,7 +273,7 @@ def deepmimic_humanoid(path: Path | None = None) -> ArticulatedSkeleton:
             links.append(ArticulatedLink(name, parent, "fixed", joint_offset, mass, com, inertia, shape, size,
                                          offset, rotation))
             continue
-        kind, group, swing, twist = HUMANOID_JOINTS[name]
+        kind, group, swing, twist, side = HUMANOID_JOINTS[name]
         foot: Literal["", "right", "left"] = ""
         if name.endswith("_ankle"):
             foot = "right" if name.startswith("right") else "left"
@@ -286,5 +290,6 @@ def deepmimic_humanoid(path: Path | None = None) -> ArticulatedSkeleton:
             links.append(ArticulatedLink(name, parent, kind, joint_offset, mass, com, inertia, shape, size,
                                          offset, rotation, twist_axis=twist_axis,
                                          swing_limit=math.radians(swing), twist_limit=math.radians(twist),
-                                         motion_channel=name, gain_group=group, foot=foot))
+                                         side_limit=math.radians(side), motion_channel=name, gain_group=group,
+                                         foot=foot))
     return ArticulatedSkeleton("deepmimic_humanoid", tuple(links), up_axis="y")

@@ -7,10 +7,10 @@ state, implicitly, through pybullet's ``STABLE_PD_CONTROL`` in ``setJointMotorCo
 stays stable at gains where the explicit law explodes at 1/240 s. Both are issued every physics step
 (pybullet clears applied joint torques after each ``stepSimulation``).
 
-Limits: desired rotations are clamped into the joint's limits before they are tracked (hinges: the range;
-ball/universal: swing cone and twist range about the bone, see ``sim.articulated.skeleton``). pybullet
-enforces the hinge ranges itself (``changeDynamics`` joint limits); ``limit_excess`` measures by how much
-a pose is outside the limits (0 inside).
+Limits: desired rotations are clamped into the joint's limits before they are tracked, and pybullet
+enforces them as constraints (hinges: their range; ball/universal: the spherical joint limit of the URDF the
+body is loaded from, measured as ``sim.articulated.joint_limit`` says); ``limit_excess`` measures by how
+much a pose is outside the limits (0 inside).
 """
 
 from __future__ import annotations
@@ -21,7 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
-from sim.articulated import quat1 as q1
+from sim.articulated.joint_limit import (
+    CLAMP_MARGIN,
+    clamp_inside,
+    limit_angles_one,
+    limit_excess,
+    limit_ranges,
+)
 from sim.articulated.reference import quat_exp, quat_log
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
@@ -45,7 +51,8 @@ class PDCommand:
 
 
 class JointLimits:
-    """Limits of the driven joints (in ``driven`` order), vectorised."""
+    """Limits of the driven joints (in ``driven`` order), vectorised. Ball/universal joints are measured as
+    pybullet's spherical limit measures them (``sim.articulated.joint_limit``)."""
 
     def __init__(self, skeleton: ArticulatedSkeleton, driven: tuple[int, ...]) -> None:
         links = [skeleton.links[i] for i in driven]
@@ -53,70 +60,48 @@ class JointLimits:
         self.axis = np.array([link.axis for link in links], dtype=float)
         self.lower = np.array([link.lower if link.kind == "hinge" else 0.0 for link in links])
         self.upper = np.array([link.upper if link.kind == "hinge" else 0.0 for link in links])
-        self.twist_axis = np.array([link.twist_axis for link in links], dtype=float)
-        self.swing_limit = np.array([link.swing_limit for link in links])
-        self.twist_limit = np.array([link.twist_limit for link in links])
+        self.ranges = np.array([limit_ranges(link, skeleton.up_axis) for link in links])  # (D, 3): x, y, z
+        self._ball = np.nonzero(~self.hinge)[0]
 
-    def _split(self, rots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(swing rotation vectors (D, 3), twist angles (D,)) of local rotations about each twist axis."""
-        q = np.where(rots[:, 3:4] < 0, -rots, rots)
-        a = self.twist_axis
-        proj = np.sum(q[:, :3] * a, axis=-1)
-        twist_angle = 2.0 * np.arctan2(proj, q[:, 3])
-        twist = quat_exp(a * twist_angle[:, None])
-        swing = quat.multiply(q, quat.conjugate(twist))
-        return quat_log(swing), twist_angle
+    def _hinge_angles(self, rots: np.ndarray) -> np.ndarray:
+        out: np.ndarray = np.sum(quat_log(rots) * self.axis, axis=-1)
+        return out
 
     def clamp_one(self, q: np.ndarray, k: int) -> np.ndarray:
-        """``clamp`` for joint ``k`` alone, in float arithmetic (the per-update hot path)."""
-        x, y, z, w = (float(v) for v in q)
-        if w < 0.0:
-            x, y, z, w = -x, -y, -z, -w
+        """``clamp`` for joint ``k`` alone (the per-update path)."""
         if self.hinge[k]:
+            x, y, z, w = (float(v) for v in q)
+            if w < 0.0:
+                x, y, z, w = -x, -y, -z, -w
             ax, ay, az = (float(v) for v in self.axis[k])
             s = math.sqrt(x * x + y * y + z * z)
             angle = 2.0 * math.atan2(s, w) * ((x * ax + y * ay + z * az) / s if s > 1e-12 else 0.0)
             angle = min(max(angle, float(self.lower[k])), float(self.upper[k]))
             h = 0.5 * angle
             return np.array([ax * math.sin(h), ay * math.sin(h), az * math.sin(h), math.cos(h)])
-        ax, ay, az = (float(v) for v in self.twist_axis[k])
-        proj = x * ax + y * ay + z * az
-        twist = 2.0 * math.atan2(proj, w)
-        th = 0.5 * twist
-        tx, ty, tz, tw = ax * math.sin(th), ay * math.sin(th), az * math.sin(th), math.cos(th)
-        sw = q1.mul(np.array([x, y, z, w]), np.array([-tx, -ty, -tz, tw]))  # swing = q · twist⁻¹
-        if sw[3] < 0:
-            sw = -sw
-        sn = math.sqrt(float(sw[0] ** 2 + sw[1] ** 2 + sw[2] ** 2))
-        swing = 2.0 * math.atan2(sn, float(sw[3]))
-        limit = float(self.swing_limit[k])
-        if swing > limit and sn > 1e-12:
-            h = 0.5 * limit
-            sw = np.array([sw[0] / sn * math.sin(h), sw[1] / sn * math.sin(h), sw[2] / sn * math.sin(h), math.cos(h)])
-        tl = float(self.twist_limit[k])
-        th = 0.5 * min(max(twist, -tl), tl)
-        return q1.mul(sw, np.array([ax * math.sin(th), ay * math.sin(th), az * math.sin(th), math.cos(th)]))
+        ranges = self.ranges[k]
+        if all(abs(a) <= float(r) - CLAMP_MARGIN for a, r in zip(limit_angles_one(q), ranges, strict=True)):
+            return np.asarray(q, dtype=float) / float(np.linalg.norm(q))
+        out: np.ndarray = clamp_inside(np.asarray(q, dtype=float)[None], self.ranges[k:k + 1])[0]
+        return out
 
     def clamp(self, rots: np.ndarray) -> np.ndarray:
-        """The nearest rotations (D, 4) inside the limits (swing and twist clamped separately)."""
-        swing, twist_angle = self._split(rots)
-        n = np.linalg.norm(swing, axis=-1)
-        swing = swing * np.minimum(1.0, self.swing_limit / np.maximum(n, 1e-12))[:, None]
-        twist_angle = np.clip(twist_angle, -self.twist_limit, self.twist_limit)
-        ball = quat.multiply(quat_exp(swing), quat_exp(self.twist_axis * twist_angle[:, None]))
-        angle = np.clip(np.sum(quat_log(rots) * self.axis, axis=-1), self.lower, self.upper)
-        hinge = quat_exp(self.axis * angle[:, None])
-        out: np.ndarray = np.where(self.hinge[:, None], hinge, ball)
+        """The rotations (D, 4) brought inside the limits (hinges: the range; ball/universal: the twist
+        clamped, the swing shortened along its arc)."""
+        angle = np.clip(self._hinge_angles(rots), self.lower, self.upper)
+        out: np.ndarray = np.where(self.hinge[:, None], quat_exp(self.axis * angle[:, None]), rots)
+        b = self._ball
+        out[b] = clamp_inside(rots[b], self.ranges[b])
         return out
 
     def excess(self, rots: np.ndarray) -> np.ndarray:
         """Radians by which each joint (D,) is outside its limits (0 inside)."""
-        swing, twist_angle = self._split(rots)
-        ball = np.maximum(np.linalg.norm(swing, axis=-1) - self.swing_limit, 0.0)
-        ball = np.maximum(ball, np.abs(twist_angle) - self.twist_limit)
-        angle = np.sum(quat_log(rots) * self.axis, axis=-1)
-        hinge = np.maximum(np.maximum(self.lower - angle, angle - self.upper), 0.0)
-        out: np.ndarray = np.maximum(np.where(self.hinge, hinge, ball), 0.0)
+        angle = self._hinge_angles(rots)[:, None] + np.array([-2.0 * math.pi, 0.0, 2.0 * math.pi])
+        # a rotation names its hinge angle only up to a turn: a knee folded to its −3.14 limit reads +3.14
+        outside = np.maximum(np.maximum(self.lower[:, None] - angle, angle - self.upper[:, None]), 0.0)
+        out = np.where(self.hinge, outside.min(axis=1), 0.0)
+        b = self._ball
+        out[b] = limit_excess(rots[b], self.ranges[b])
         return out
 
 
