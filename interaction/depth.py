@@ -31,7 +31,7 @@ overshoot), which follows a constant velocity with no lag. At the OAK's 30 fps m
 felt within ~2 frames (≈ 67 ms) after it shows in the depth; at 15 fps twice that. Processing
 itself (frame in → contactors out) takes ≈ 2 ms of CPU per 640×400 frame on average with 1–4
 people on this machine (the busiest 4-person frames ≈ 3.5 ms; no frame builds whole-image tables
-except the first of an image size, ≈ 1 ms).
+except the first of an image size, ≈ 1 ms; work arrays are kept from frame to frame).
 
 A velocity's direction is limited by the frame rate as much as by the noise: on the virtual
 performer at 15 fps, for hands (feet) moving faster than 0.5 m/s, the frame-to-frame step of their
@@ -154,11 +154,18 @@ class DepthObserver:
         self._cfg = config
         self._cal = calibration
         self._rays: tuple[tuple[int, int, int, tuple[float, ...]], np.ndarray] | None = None
+        self._arrays: _SampledArrays | None = None  # the per-frame work arrays, made by the first frame
         cfg = config
         self._grid = (math.ceil((cfg.stage_y[1] - cfg.stage_y[0]) / cfg.cell_m),
                       math.ceil((cfg.stage_x[1] - cfg.stage_x[0]) / cfg.cell_m))  # (rows: y, cols: x)
         self._learned = 0
         self._static_count = np.zeros(self._grid, dtype=np.int32)
+        # the floor grid's per-frame arrays, written into every frame: the occupied cells, closed, labelled
+        self._occupied = np.empty(self._grid, dtype=bool)
+        self._closed = np.empty(self._grid, dtype=np.uint8)
+        self._labels = np.empty(self._grid, dtype=np.int32)
+        self._labels16 = np.empty(self._grid, dtype=np.uint16)
+        self._grown = np.empty(self._grid, dtype=np.uint16)
         self._static: np.ndarray | None = None
         self._tracker = PeopleTracker(cfg.match_distance_m, cfg.track_memory_frames)
         self._tracks: dict[tuple[int, str], _Track] = {}
@@ -213,7 +220,9 @@ class DepthObserver:
         self._points = pts
         rows, cols = self._grid
         raised = pts[:, 2] > cfg.body_clearance_m  # clear of the floor's noise
-        occupied = np.bincount(cell[raised], minlength=rows * cols).reshape(rows, cols) >= 1
+        occupied = self._occupied
+        occupied.fill(False)
+        occupied.reshape(-1)[cell[raised]] = True  # the cells holding a raised point
         if self.learning:
             self._static_count += occupied
             self._learned += 1
@@ -224,11 +233,12 @@ class DepthObserver:
         grid: np.ndarray = occupied.astype(np.uint8)
         if self._static is not None:
             grid[self._static] = 0
-        grid = cv2.morphologyEx(grid, cv2.MORPH_CLOSE, _KERNEL5)
-        n, labels = cv2.connectedComponents(grid, connectivity=8)
+        grid = cv2.morphologyEx(grid, cv2.MORPH_CLOSE, _KERNEL5, dst=self._closed)
+        n, labels = cv2.connectedComponents(grid, labels=self._labels, connectivity=8)
         # low points (feet) go to the person whose footprint, grown by a cell or two, they are in
-        labels16 = labels.astype(np.uint16)  # (a grid's blobs are far fewer than 65536)
-        grown = cv2.dilate(labels16, _KERNEL5)
+        labels16 = self._labels16
+        np.copyto(labels16, labels, casting="unsafe")  # (a grid's blobs are far fewer than 65536)
+        grown = cv2.dilate(labels16, _KERNEL5, dst=self._grown)
         own = labels16.reshape(-1)[cell]
         label = np.where(raised & (own > 0), own, grown.reshape(-1)[cell])  # an arm's sparse end: to its body
         order = np.argsort(label, kind="stable")  # 16-bit keys: a radix sort (a quarter of a 32-bit one's time)
@@ -299,14 +309,26 @@ class DepthObserver:
             rays = (cam @ self._cal.matrix.T).reshape(-1, 3).T  # stage direction per metre of depth
             self._rays = (key, np.ascontiguousarray(rays, dtype=np.float32))
         rays = self._rays[1]
-        z = p.depth_mm[::step, ::step].reshape(-1).astype(np.float32) * np.float32(0.001)
+        sampled = p.depth_mm[::step, ::step]
+        a = self._arrays
+        if a is None or a.z.shape != (sampled.size,):
+            a = self._arrays = _SampledArrays(sampled.size)
+        z = a.z
+        np.copyto(z.reshape(sampled.shape), sampled, casting="unsafe")  # uint16 → float32, exact
+        np.multiply(z, np.float32(0.001), out=z)
         c = self._cal.centre.astype(np.float32)
-        x, y, up = rays[0] * z + c[0], rays[1] * z + c[1], rays[2] * z + c[2]
+        x, y, up = (np.add(np.multiply(rays[i], z, out=out), c[i], out=out) for i, out in enumerate((a.x, a.y, a.up)))
         rows, cols = self._grid
-        ix = ((x - cfg.stage_x[0]) * (1 / cfg.cell_m)).astype(np.int32)  # truncation: fine inside the volume
-        iy = ((y - cfg.stage_y[0]) * (1 / cfg.cell_m)).astype(np.int32)
-        inside = (z > 0) & (x > cfg.stage_x[0]) & (y > cfg.stage_y[0]) & (ix < cols) & (iy < rows)
-        inside &= (up > cfg.floor_clearance_m) & (up < cfg.max_height_m)
+        for at, low, cell in ((x, cfg.stage_x[0], a.ix), (y, cfg.stage_y[0], a.iy)):  # truncation: fine inside the volume
+            np.copyto(cell, np.multiply(np.subtract(at, low, out=a.scratch), 1 / cfg.cell_m, out=a.scratch), casting="unsafe")
+        ix, iy, inside, test = a.ix, a.iy, a.inside, a.test
+        np.greater(z, 0, out=inside)
+        inside &= np.greater(x, cfg.stage_x[0], out=test)
+        inside &= np.greater(y, cfg.stage_y[0], out=test)
+        inside &= np.less(ix, cols, out=test)
+        inside &= np.less(iy, rows, out=test)
+        inside &= np.greater(up, cfg.floor_clearance_m, out=test)
+        inside &= np.less(up, cfg.max_height_m, out=test)
         keep = np.flatnonzero(inside)
         pts = np.stack([x[keep], y[keep], up[keep]], axis=1).astype(np.float64)
         return pts, (iy[keep] * cols + ix[keep]).astype(np.int64)
@@ -357,6 +379,17 @@ class DepthObserver:
         track.velocity = track.velocity + self._cfg.beta * residual / dt
         track.t = t
         return track.velocity
+
+
+class _SampledArrays:
+    """The work arrays of :meth:`DepthObserver._stage_points` for one sampled image size (n pixels),
+    kept between frames: a frame allocates nothing the size of the image but the points it keeps."""
+
+    def __init__(self, n: int) -> None:
+        # depth (metres), the stage coordinates, a scratch array; the floor-grid cell column and row; masks
+        self.z, self.x, self.y, self.up, self.scratch = (np.empty(n, np.float32) for _ in range(5))
+        self.ix, self.iy = np.empty(n, np.int32), np.empty(n, np.int32)
+        self.inside, self.test = np.empty(n, bool), np.empty(n, bool)
 
 
 def _vec(v: np.ndarray) -> tuple[float, float, float]:

@@ -22,6 +22,7 @@ _GAIN_STRIDE = 6  # measure the light gain on every 6th pixel in each direction
 _MIN_BG_LEVEL = 12.0  # background channel values below this tell nothing about the gain
 _IQR_PER_SIGMA = 1.349  # a normal distribution's interquartile range, in σ
 _CHANNEL_MEAN = np.full((1, 3), 1.0 / 3.0, dtype=np.float32)
+_ONES = np.ones((1, 3), dtype=np.float32)  # sums a pixel's three channels
 
 
 class BackgroundModel:
@@ -38,6 +39,8 @@ class BackgroundModel:
         self._bg: np.ndarray | None = None  # float32 (H, W, 3)
         self._bg_sq: np.ndarray | None = None  # its square, per channel
         self._thr2: np.ndarray | None = None  # float32 (H, W): squared distance threshold per pixel
+        self._thr2_quarter: np.ndarray | None = None  # a quarter of it (the shadow test's slack)
+        self._arrays: _ForegroundArrays | None = None  # the per-frame work arrays, made by the first frame
         self._gain = (1.0, 1.0, 1.0)
         self._empty_run = 0
 
@@ -69,6 +72,7 @@ class BackgroundModel:
         self._bg = None
         self._bg_sq = None
         self._thr2 = None
+        self._thr2_quarter = None
         self._gain = (1.0, 1.0, 1.0)
         self._empty_run = 0
 
@@ -93,6 +97,7 @@ class BackgroundModel:
         self._bg = bg
         self._bg_sq = bg * bg
         self._thr2 = (thr * thr).astype(np.float32)
+        self._thr2_quarter = 0.25 * self._thr2
         self._forget_learning()
 
     def _forget_learning(self) -> None:
@@ -101,33 +106,44 @@ class BackgroundModel:
     # ------------------------------------------------------------ per frame
 
     def foreground(self, bgr: np.ndarray, ignore: np.ndarray | None = None) -> np.ndarray:
-        """The cleaned foreground mask (uint8 0/255) of a frame.
+        """The cleaned foreground mask (uint8 0/255) of a frame: the model's own array, overwritten by the
+        next call (copy it to keep it).
 
         ``ignore`` (uint8/bool, same size) marks pixels to leave out of the light measurement
-        (where people stood last frame).
+        (where people stood last frame). Every image-sized step writes into work arrays kept from frame
+        to frame (see :class:`_ForegroundArrays`): a frame allocates nothing the size of the image.
         """
-        if self._bg is None or self._bg_sq is None or self._thr2 is None:
+        if self._bg is None or self._bg_sq is None or self._thr2 is None or self._thr2_quarter is None:
             raise RuntimeError("BackgroundModel.foreground called while still learning")
         cfg = self._cfg
-        img = bgr.astype(np.float32)
+        a = self._arrays
+        if a is None or a.img.shape != self._bg.shape:
+            a = self._arrays = _ForegroundArrays(self._bg.shape[:2])
+        img = a.img
+        np.copyto(img, bgr, casting="unsafe")  # uint8 → float32, exact
         self._gain = self._measure_gain(img, ignore)
         g = np.asarray(self._gain, dtype=np.float32)
-        bg = cv2.transform(self._bg, np.diag(g))  # the background under this frame's light
-        d = cv2.subtract(img, bg)
-        ones = np.ones((1, 3), dtype=np.float32)
-        dd = cv2.transform(cv2.multiply(d, d), ones)  # |I − B|²
-        fg = dd > self._thr2
-        db = cv2.transform(cv2.multiply(d, bg), ones)  # (I − B)·B
-        bb = cv2.transform(self._bg_sq, (g * g)[None, :]) + np.float32(1e-3)  # |B|²
-        ratio_minus_1 = db / bb  # brightness ratio α − 1, with I ≈ α B + colour distortion
-        cd2 = dd - db * ratio_minus_1  # squared colour distortion |I − α B|²
-        alpha = ratio_minus_1 + np.float32(1.0)
-        tol = np.float32(cfg.shadow_colour_tolerance) * alpha
-        shadow = (alpha >= cfg.shadow_min_ratio) & (alpha <= 1.0) & (cd2 <= tol * tol * bb + 0.25 * self._thr2)
-        mask = (fg & ~shadow).view(np.uint8) * np.uint8(255)
-        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._kernel)
-        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._kernel)
-        return cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._bridge)
+        bg = cv2.transform(self._bg, np.diag(g), dst=a.bg)  # the background under this frame's light
+        d = cv2.subtract(img, bg, dst=a.diff)
+        dd = cv2.transform(cv2.multiply(d, d, dst=a.product), _ONES, dst=a.dd)  # |I − B|²
+        fg = np.greater(dd, self._thr2, out=a.fg)
+        db = cv2.transform(cv2.multiply(d, bg, dst=a.product), _ONES, dst=a.db)  # (I − B)·B
+        bb = cv2.transform(self._bg_sq, (g * g)[None, :], dst=a.bb)
+        np.add(bb, np.float32(1e-3), out=bb)  # |B|²
+        ratio_minus_1 = np.divide(db, bb, out=a.alpha)  # brightness ratio α − 1, with I ≈ α B + colour distortion
+        cd2 = np.subtract(dd, np.multiply(db, ratio_minus_1, out=a.work), out=dd)  # squared colour distortion |I − α B|²
+        alpha = np.add(ratio_minus_1, np.float32(1.0), out=a.alpha)
+        tol = np.multiply(np.float32(cfg.shadow_colour_tolerance), alpha, out=a.work)
+        # shadow: (α >= min ratio) & (α <= 1) & (cd2 <= tol² |B|² + ¼ thr²)
+        bound = np.add(np.multiply(np.multiply(tol, tol, out=tol), bb, out=tol), self._thr2_quarter, out=tol)
+        shadow = np.less_equal(cd2, bound, out=a.shadow)
+        shadow &= np.greater_equal(alpha, cfg.shadow_min_ratio, out=a.test)
+        shadow &= np.less_equal(alpha, 1.0, out=a.test)
+        fg &= np.invert(shadow, out=shadow)
+        mask = np.multiply(fg.view(np.uint8), np.uint8(255), out=a.mask)
+        opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._kernel, dst=a.opened)
+        closed = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, self._kernel, dst=a.mask)
+        return cv2.morphologyEx(closed, cv2.MORPH_CLOSE, self._bridge, dst=a.opened)
 
     def refresh(self, bgr: np.ndarray, someone_in_view: bool) -> None:
         """Blend the frame into the background once no one has been in view for a while."""
@@ -136,7 +152,7 @@ class BackgroundModel:
         self._empty_run = 0 if someone_in_view else self._empty_run + 1
         if self._empty_run > self._cfg.refresh_after_empty_frames and self._cfg.refresh_rate > 0:
             cv2.accumulateWeighted(bgr, self._bg, self._cfg.refresh_rate)
-            self._bg_sq = cv2.multiply(self._bg, self._bg)
+            cv2.multiply(self._bg, self._bg, dst=self._bg_sq)
 
     def _measure_gain(self, img: np.ndarray, ignore: np.ndarray | None) -> tuple[float, float, float]:
         assert self._bg is not None
@@ -151,6 +167,29 @@ class BackgroundModel:
         ratios = frame[keep] / bg[keep]
         g = np.clip(np.median(ratios, axis=0), 0.25, 4.0)
         return float(g[0]), float(g[1]), float(g[2])
+
+
+class _ForegroundArrays:
+    """The work arrays of :meth:`BackgroundModel.foreground` for one image size (H, W), kept between
+    frames so that a frame's image-sized steps write into memory already in use rather than asking the
+    allocator for ~10 MB a frame (which it hands back to the system and page-faults in again)."""
+
+    def __init__(self, shape: tuple[int, ...]) -> None:
+        h, w = shape
+        self.img = np.empty((h, w, 3), np.float32)  # the frame
+        self.bg = np.empty((h, w, 3), np.float32)  # the background under the frame's light
+        self.diff = np.empty((h, w, 3), np.float32)  # frame − background
+        self.product = np.empty((h, w, 3), np.float32)  # per-channel products before they are summed
+        self.dd = np.empty((h, w), np.float32)  # |I − B|², then the colour distortion
+        self.db = np.empty((h, w), np.float32)
+        self.bb = np.empty((h, w), np.float32)
+        self.alpha = np.empty((h, w), np.float32)
+        self.work = np.empty((h, w), np.float32)
+        self.fg = np.empty((h, w), bool)
+        self.shadow = np.empty((h, w), bool)
+        self.test = np.empty((h, w), bool)
+        self.mask = np.empty((h, w), np.uint8)
+        self.opened = np.empty((h, w), np.uint8)
 
 
 def _insert_sorted(stack: list[np.ndarray], x: np.ndarray) -> None:

@@ -5,11 +5,17 @@ cleaned by morphology; see :mod:`interaction.silhouette`), blobs → people (pie
 joined to it, people who walked into each other cut apart; :mod:`interaction.silhouette_parts`)
 with ids kept by nearest centroid, points along each outline plus head and hands
 (:mod:`interaction.people`) and feet at the middles of the leg ends, each with a velocity from DIS
-dense optical flow (in boxes around the people), all mapped through the :class:`Calibration` onto
-the stage plane. A hand or foot that cannot be placed (legs hidden by a background like them, a
-person cut from others) is left out rather than reported at a wrong place. With ``pose`` on,
-BlazePose's keypoints per person (:mod:`interaction.pose`) add hands and feet as contactors with
-their own velocities. Pure of hardware: feed it :class:`sensors.Frame` objects from anywhere.
+dense optical flow (in boxes around the people; :mod:`interaction.people_flow`), all mapped through
+the :class:`Calibration` onto the stage plane. A hand or foot that cannot be placed (legs hidden by a
+background like them, a person cut from others) is left out rather than reported at a wrong place.
+With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.pose`) add hands and feet as
+contactors with their own velocities. Pure of hardware: feed it :class:`sensors.Frame` objects from
+anywhere.
+
+A frame allocates no image-sized arrays but the one it hands out (the people's mask) and the flow DIS
+returns: the work arrays are kept from frame to frame. (Fresh ones, ~10 MB a 640×480 frame, were often
+handed back to the system and page-faulted in again, up to ~1000 minor faults a frame: ≈ 0.5 ms of CPU
+of a 4.4 ms frame on average, more on a loaded machine.)
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ import numpy.ma  # noqa: F401  np.median imports it on first use (~16 ms): at im
 
 from interaction.calibration import Calibration
 from interaction.people import Blob, PeopleTracker, find_blobs, outline_points
+from interaction.people_flow import joined_boxes, median_flow
 from interaction.pose import Keypoints, PoseModel, PoseModelError, PoseTracker
 from interaction.pose_models import default_model_dir, find_models
 from interaction.silhouette import BackgroundModel
@@ -64,6 +71,14 @@ class WebcamObserver:
         self._input_size: tuple[int, int] | None = None  # (width, height) of the frames, fixed by the first one
         self._scale = 1.0  # work pixels per input pixel
         self._prev_grey: np.ndarray | None = None
+        # image-sized arrays kept from frame to frame (a frame allocates none): the work-size frame, the
+        # grey frame not in use (the previous one is still needed), the grown mask, the optical flow
+        self._work: np.ndarray | None = None
+        self._spare_grey: np.ndarray | None = None
+        self._grown: np.ndarray | None = None
+        self._flow_work: np.ndarray | None = None
+        k = 2 * config.morphology_px + 1
+        self._grow_kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))
         self._prev_t: float | None = None
         self._mask: np.ndarray | None = None  # people at work size
         self._silhouette: np.ndarray | None = None  # people at input size, made when asked for
@@ -116,7 +131,8 @@ class WebcamObserver:
     def flow(self) -> np.ndarray | None:
         """The last backward optical flow at work size (h, w, 2), in work pixels: where each pixel was
         in the previous frame, relative to where it is now. Computed only in a box around the people
-        (0 elsewhere); None when not computed (no one in view, or only people seen for the first time)."""
+        (0 elsewhere); None when not computed (no one in view, or only people seen for the first time).
+        The observer's own array, overwritten by the next frame (copy it to keep it)."""
         return self._flow_px
 
     @property
@@ -147,9 +163,10 @@ class WebcamObserver:
         or whose size differs from the calibration's or from the frames before it."""
         bgr = self._check(frame)
         work = self._work_image(bgr)
-        grey = cv2.cvtColor(work, cv2.COLOR_BGR2GRAY)
+        grey = cv2.cvtColor(work, cv2.COLOR_BGR2GRAY, dst=_same_size(self._spare_grey, work.shape[:2], np.uint8))
         prev_grey, prev_t = self._prev_grey, self._prev_t
         self._prev_grey, self._prev_t = grey, frame.t
+        self._spare_grey = prev_grey  # still read this frame (the flow); written into next frame
         self._flow_px = None
 
         if self._background.learning:
@@ -231,7 +248,8 @@ class WebcamObserver:
             return bgr
         h, w = bgr.shape[:2]
         size = (max(1, round(w * self._scale)), max(1, round(h * self._scale)))
-        return cv2.resize(bgr, size, interpolation=cv2.INTER_AREA)
+        self._work = _same_size(self._work, (size[1], size[0], 3), np.uint8)
+        return cv2.resize(bgr, size, dst=self._work, interpolation=cv2.INTER_AREA)
 
     def _to_input_px(self, uv_work: np.ndarray) -> np.ndarray:
         """Work pixel coordinates → input pixel coordinates (pixel centres kept aligned)."""
@@ -243,8 +261,8 @@ class WebcamObserver:
         """Where people stood last frame, grown a little: left out of the light measurement."""
         if self._mask is None or not self._mask.any():
             return None
-        k = 2 * self._cfg.morphology_px + 1
-        return cv2.dilate(self._mask, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
+        self._grown = _same_size(self._grown, self._mask.shape, np.uint8)
+        return cv2.dilate(self._mask, self._grow_kernel, dst=self._grown)
 
     def _people_flow(self, grey: np.ndarray, prev_grey: np.ndarray, blobs: list[Blob]) -> np.ndarray:
         """Backward DIS flow (current → previous frame) over the boxes around the people plus a margin,
@@ -255,8 +273,9 @@ class WebcamObserver:
         boxes = [(max(0, int(b.contour[:, 0].min()) - m), max(0, int(b.contour[:, 1].min()) - m),
                   min(w, int(b.contour[:, 0].max()) + m + 1), min(h, int(b.contour[:, 1].max()) + m + 1))
                  for b in blobs]
-        flow = np.zeros((h, w, 2), dtype=np.float32)
-        for u0, v0, u1, v1 in _joined_boxes(boxes):
+        flow = self._flow_work = _same_size(self._flow_work, (h, w, 2), np.float32)
+        flow.fill(0.0)
+        for u0, v0, u1, v1 in joined_boxes(boxes):
             now, before = np.ascontiguousarray(grey[v0:v1, u0:u1]), np.ascontiguousarray(prev_grey[v0:v1, u0:u1])
             # None: no initial flow (OpenCV's stubs demand an array, which DIS would take as one)
             flow[v0:v1, u0:u1] = self._flow.calc(now, before, None)  # type: ignore[call-overload]
@@ -299,7 +318,7 @@ class WebcamObserver:
         ``pos``) from the median optical flow over the person's pixels near each; None without flow."""
         if self._flow_px is None or dt <= 0:
             return None
-        back = _median_flow(self._flow_px, people, uv_px, self._cfg.flow_window_px)
+        back = median_flow(self._flow_px, people, uv_px, self._cfg.flow_window_px)
         vel = (pos - self._cal.image_to_stage(uv + back / self._scale)) / dt
         vel[:, 1] = 0.0
         return vel
@@ -356,41 +375,8 @@ def _pose_tracker(config: WebcamObserverConfig) -> PoseTracker | None:
     return PoseTracker(model, config.pose_min_score, config.pose_min_visibility)
 
 
-def _joined_boxes(boxes: list[tuple[int, int, int, int]]) -> list[tuple[int, int, int, int]]:
-    """Boxes (u0, v0, u1, v1), those that overlap joined into the box around both, until none do."""
-    out = list(boxes)
-    k = 0
-    while k < len(out):
-        p = out[k]
-        hit = next((i for i, q in enumerate(out) if i != k and p[0] < q[2] and q[0] < p[2] and p[1] < q[3] and q[1] < p[3]),
-                   None)
-        if hit is None:
-            k += 1
-            continue
-        q = out.pop(hit)
-        out[k if hit > k else k - 1] = (min(p[0], q[0]), min(p[1], q[1]), max(p[2], q[2]), max(p[3], q[3]))
-        k = 0
-    return out
-
-
-def _median_flow(flow: np.ndarray, mask: np.ndarray, uv: np.ndarray, window: int) -> np.ndarray:
-    """Per point (N, 2 int pixels), the median flow (N, 2) over the masked pixels of a window
-    centred on it (the point's own flow if none of the window is masked)."""
-    h, w = mask.shape
-    r = window // 2
-    offs = np.arange(-r, r + 1)
-    du, dv = np.meshgrid(offs, offs)
-    uu = np.clip(uv[:, 0:1] + du.reshape(1, -1), 0, w - 1)  # (N, window²)
-    vv = np.clip(uv[:, 1:2] + dv.reshape(1, -1), 0, h - 1)
-    inside = mask[vv, uu] > 0
-    centre = du.size // 2
-    inside[:, centre] |= ~inside.any(axis=1)  # no masked pixel near: the point's own flow
-    count = inside.sum(axis=1)
-    rows = np.arange(len(uv))
-    lo, hi = (count - 1) // 2, count // 2
-    out = np.empty((len(uv), 2), dtype=np.float64)
-    for c in range(2):
-        vals = np.where(inside, flow[vv, uu, c], np.inf)
-        vals.sort(axis=1)  # the masked values first, in order
-        out[:, c] = 0.5 * (vals[rows, lo] + vals[rows, hi])
-    return out
+def _same_size(array: np.ndarray | None, shape: tuple[int, ...], dtype: type) -> np.ndarray:
+    """``array`` when it has this shape (its contents are to be overwritten), else a new one that has."""
+    if array is None or array.shape != shape:
+        return np.empty(shape, dtype)
+    return array
