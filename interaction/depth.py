@@ -21,7 +21,8 @@ low over the floor under the shins. Hands and feet are followed by :class:`inter
 
 People: ``people`` counts those seen plus those hidden: someone seen in 5 frames or more who
 vanished less than ``hidden_memory_s`` ago next to (``hidden_near_m``) someone still seen is
-behind or merged with them, and still counted (with no contactors of their own).
+behind or merged with them, and still counted (with no contactors of their own) — unless a track born
+about then is there, the same person under a new id (``interaction.hidden_people``).
 
 Latency: a contactor's position is the frame's own measurement (no filtering, no lag). A hand's
 or foot's velocity is the frame-to-frame one (half a frame behind), claimed from its third frame;
@@ -55,6 +56,7 @@ import numpy as np
 
 from interaction.depth_calibration import DepthCalibration
 from interaction.depth_parts import FineDepth, find_feet, find_hands
+from interaction.hidden_people import HiddenPeople
 from interaction.limb_tracks import LimbTracker
 from interaction.people import PeopleTracker, split_side_by_side
 from interaction.types import BodyObservation, Contactor
@@ -136,7 +138,6 @@ class DepthObserverConfig:
 
 
 _KERNEL5 = np.ones((5, 5), np.uint8)
-_HIDDEN_AFTER_FRAMES = 5  # only a person seen in this many frames is counted when hidden
 _LIMBS = {"hand": 0.07, "foot": 0.08}  # the parts followed by LimbTracker, and their contactors' radii
 
 
@@ -171,8 +172,8 @@ class DepthObserver:
         self._tracks: dict[tuple[int, str], _Track] = {}
         self._points: np.ndarray = np.zeros((0, 3))
         self._fine = FineDepth(calibration)
-        self._seen_at: dict[int, float] = {}  # person → when last seen
-        self._seen_frames: dict[int, int] = {}  # person → in how many frames
+        self._hidden = HiddenPeople(config.hidden_memory_s, config.hidden_near_m,
+                                    (float(calibration.translation[0]), float(calibration.translation[1])))
         self._limbs = LimbTracker(gate_m=cfg.limb_gate_m, steady_m=cfg.limb_steady_m,
                                   confirm_frames=cfg.limb_confirm_frames, steady_frames=cfg.limb_steady_frames,
                                   memory_frames=cfg.limb_memory_frames, consistent_deg=cfg.limb_consistent_deg,
@@ -201,8 +202,7 @@ class DepthObserver:
         self._static_count[:] = 0
         self._static = None
         self._tracker.clear()
-        self._seen_at.clear()
-        self._seen_frames.clear()
+        self._hidden.clear()
         self._tracks.clear()
         self._limbs.clear()
 
@@ -252,7 +252,7 @@ class DepthObserver:
         people = people[: cfg.max_people]
         centres = [(float(q[:, 0].sum()) / len(q), float(q[:, 1].sum()) / len(q)) for q in people]  # the means
         ids = self._tracker.assign(centres)
-        hidden = self._hidden_people(ids, centres, frame.t)
+        hidden = self._hidden.count(ids, centres, self._tracker.predicted(), frame.t)
         contactors: list[Contactor] = []
         seen: set[tuple[int, str]] = set()
         for pid, q in sorted(zip(ids, people, strict=True), key=lambda x: x[0]):
@@ -271,30 +271,10 @@ class DepthObserver:
         for key in [k for k in self._tracks if k not in seen]:
             del self._tracks[key]
         self._limbs.forget_people(set(ids))
-        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(people) + hidden)
+        people_now = len(people) + hidden - self._hidden.unconfirmed(ids)
+        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=people_now)
 
     # ------------------------------------------------------------ internals
-
-    def _hidden_people(self, ids: list[int], centres: list[tuple[float, float]], t: float) -> int:
-        """People not seen in this frame but seen less than ``hidden_memory_s`` ago, whose predicted
-        place is within ``hidden_near_m`` of someone seen: hidden behind (or merged with) that one,
-        still on the stage (no contactors are made for them)."""
-        for pid in ids:
-            self._seen_at[pid] = t
-            self._seen_frames[pid] = self._seen_frames.get(pid, 0) + 1
-        cfg = self._cfg
-        count = 0
-        for pid, (place, unseen) in self._tracker.predicted().items():
-            if unseen == 0 or t - self._seen_at.get(pid, -math.inf) > cfg.hidden_memory_s:
-                continue
-            if self._seen_frames.get(pid, 0) < _HIDDEN_AFTER_FRAMES:
-                continue  # seen for a moment only: more likely a blob split in two than a person
-            if any(math.dist(place, c) <= cfg.hidden_near_m for c in centres):
-                count += 1
-        for pid in [p for p, seen in self._seen_at.items() if t - seen > cfg.hidden_memory_s + 1.0]:
-            del self._seen_at[pid]
-            self._seen_frames.pop(pid, None)
-        return count
 
     def _stage_points(self, p: DepthImage) -> tuple[np.ndarray, np.ndarray]:
         """Stage points (N, 3) of the sampled image's pixels inside the stage volume, and their floor-grid
