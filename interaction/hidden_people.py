@@ -4,16 +4,16 @@ someone it does see.
 Someone seen in ``HIDDEN_AFTER_FRAMES`` frames or more who vanished less than ``memory_s`` ago, whose
 predicted place is within ``near_m`` of someone still seen or in the camera's shadow of someone nearer to it
 (``SHADOW_HALF_WIDTH_M``: the camera, on the stage's floor plan, given), is counted — unless a track that
-appeared (new, or back after going unseen) about when they vanished (from ``REBORN_S`` before their last
-sighting on) is there instead (within ``near_m`` of where they were last seen or are predicted): then the
-tracker has lost them and found them again under another id (a lunging arm cut off as a blob of
+appeared (new, or back after going unseen) after their last sighting — or split off beside them from
+``REBORN_S`` before it — is there instead (within ``near_m`` of where they were last seen or are
+predicted): then the tracker has lost them and found them again under another id (a lunging arm cut off as a blob of
 its own took the body's track, or a blob split in two), and counting both would count one person twice.
 Someone first seen beside a person already there is counted from their ``CONFIRM_FRAMES``-th frame
-(``unconfirmed``). Measured on ``jostle bench interaction``'s recordings (seeds 0, 7, 42, 100; 4 × 4
-recordings, ~900 counted frames): wrong counts 2, 5, 18, 9 frames before (with the waist test of
-``interaction.people.split_side_by_side``), 0, 0, 0, 0 after. The rules were made on seeds 0 and 100,
-then 42 (a track found again after being unseen, and kept as that person while it walks on); seed 7 was
-only measured.
+(``unconfirmed``). Measured on ``jostle bench interaction``'s recordings (4 recordings of 1–4 people each),
+frames with the wrong count, before → after (with the waist/head test of
+``interaction.people.split_side_by_side``): at the bench's 15 fps, seeds 0, 7, 42, 55, 100: 2, 5, 18, 5, 9
+→ 0, 0, 0, 1, 0 (of ~225 each); at the installations' 30 fps, seeds 0, 7, 100: 22, 10, 28 → 0, 0, 0 (of
+~465). The rules were made on seeds 0 and 100 (15 and 30 fps) and 42; seeds 7 and 55 were only measured.
 """
 
 from __future__ import annotations
@@ -21,9 +21,9 @@ from __future__ import annotations
 import math
 
 HIDDEN_AFTER_FRAMES = 5  # only a person seen in this many frames is counted when hidden
-REBORN_S = 0.15  # a track born this long before someone's last sighting, or later, may be them found again
+REBORN_S = 0.15  # a piece split off someone this long before their last sighting may be them found again
 CONFIRM_FRAMES = 3  # someone first seen beside another person is counted from their third frame on
-SHADOW_HALF_WIDTH_M = 0.35  # someone this near the line from the camera through a nearer person is hidden by them
+SHADOW_HALF_WIDTH_M = 0.5  # someone this near the line from the camera through a nearer person is hidden by them
 
 
 class HiddenPeople:
@@ -81,19 +81,23 @@ class HiddenPeople:
         pool = [(self._back_since[pid], c, pid) for pid, c in seen.items() if pid not in self._explained.values()]
         count = 0
         for pid in sorted(self._hidden_now(centres, predicted, t), key=lambda h: -self._seen_at[h]):
-            if self._explained.get(pid) in seen:
-                continue  # taken over earlier by a track still seen: that track is this person
+            if self._explained.get(pid) in self._seen_at:
+                continue  # taken over earlier by a track still remembered: that track is this person
             place = predicted[pid][0]
             last_seen, last_place = self._seen_at[pid], self._seen_place[pid]
 
             def off(c: tuple[float, float], last: tuple[float, float] = last_place,
                     ahead: tuple[float, float] = place) -> float:  # from where last seen or where predicted
                 return min(math.dist(last, c), math.dist(ahead, c))
-            found = [k for k, (back, c, _) in enumerate(pool) if back >= last_seen - REBORN_S and off(c) <= self._near_m]
+            found = [k for k, (back, c, taker) in enumerate(pool)
+                     if off(c) <= self._near_m and (back > last_seen or (  # appeared after they were last seen,
+                         taker in self._born_beside and back >= last_seen - REBORN_S))]  # or split off them
             if found:  # found again under another id: that one is this person (and counted at once)
                 taker = pool.pop(min(found, key=lambda k: off(pool[k][1])))[2]
                 self._explained[pid] = taker
                 self._born_beside.discard(taker)
+                # the taker is this person, seen as long as they were (so it counts if it is lost in turn)
+                self._seen_frames[taker] = self._seen_frames.get(taker, 0) + self._seen_frames.get(pid, 0)
             else:
                 count += 1
         self._forget(t)
@@ -122,7 +126,9 @@ class HiddenPeople:
                 continue
             if self._seen_frames.get(pid, 0) < HIDDEN_AFTER_FRAMES:
                 continue  # seen for a moment only: more likely a blob split in two than a person
-            if any(math.dist(place, c) <= self._near_m or self._behind(place, c) for c in centres):
+            last = self._seen_place[pid]  # where predicted, or (a jump thrown the prediction off) last seen
+            if any(min(math.dist(place, c), math.dist(last, c)) <= self._near_m or self._behind(place, c)
+                   or self._behind(last, c) for c in centres):
                 out.append(pid)
         return out
 

@@ -238,6 +238,7 @@ def _middle_of(pts: np.ndarray, sel: np.ndarray, axis: int) -> np.ndarray:
 
 
 _WAIST_SHARE = 0.15
+_HEAD_ABOVE_M = 0.03
 
 
 def split_side_by_side(q: np.ndarray, separation: float, depth: int = 0) -> list[np.ndarray]:
@@ -245,9 +246,11 @@ def split_side_by_side(q: np.ndarray, separation: float, depth: int = 0) -> list
     its points above the knees (0.65 m) on the floor plane, started from the two points farthest
     apart, gives two halves, each with a fifth of those points or more, whose middles are at least
     ``separation`` apart (one person's halves are ~0.2–0.3 m apart), each standing on the floor and each
-    with a waist (``_WAIST_SHARE`` of its points above the knees between 0.75 and 1.15 m: an arm held or
-    thrown out is no person, even with a lunging leg under it — measured on ``jostle bench interaction``'s
-    punches, such halves had 0–3 %, people 35–60 %). Split again per half (up to 4)."""
+    with a waist (``_WAIST_SHARE`` of its points above the knees between 0.75 and 1.15 m) or else a head
+    above the other half's top (someone behind, their middle hidden): an arm held or thrown out is no
+    person, even with a lunging leg under it. Measured on ``jostle bench interaction``'s punches: such
+    halves had 0–3 % waist and tops 1–3 cm below the body's; people 35–70 %, and a person half hidden
+    behind another 8–11 % with a top 17 cm above. Split again per half (up to 4)."""
     upper = q[q[:, 2] > 0.65, :2]
     if depth >= 2 or len(upper) < 40:
         return [q]
@@ -275,10 +278,13 @@ def split_side_by_side(q: np.ndarray, separation: float, depth: int = 0) -> list
     if min(share, 1 - share) < 0.2 or math.sqrt(float((a - b).dot(a - b))) < separation:
         return [q]
     side = np.add.reduce(np.square(q[:, :2] - a), axis=1) < np.add.reduce(np.square(q[:, :2] - b), axis=1)
-    for half in (q[side], q[~side]):
+    halves = (q[side], q[~side])
+    tops = [float(h[:, 2].max()) for h in halves]
+    for k, half in enumerate(halves):
         z = half[:, 2]
         if np.count_nonzero(z < 0.5) < 5:
             return [q]
-        if np.count_nonzero((z > 0.75) & (z < 1.15)) < _WAIST_SHARE * np.count_nonzero(z > 0.65):
-            return [q]  # no waist: an arm thrown forward (with the leg under it), not a second body
+        waist = np.count_nonzero((z > 0.75) & (z < 1.15)) >= _WAIST_SHARE * np.count_nonzero(z > 0.65)
+        if not waist and tops[k] < tops[1 - k] + _HEAD_ABOVE_M:
+            return [q]  # no waist and no head above the rest: an arm thrown forward, not a second body
     return [*split_side_by_side(q[side], separation, depth + 1), *split_side_by_side(q[~side], separation, depth + 1)]

@@ -42,6 +42,11 @@ def test_a_lunge_with_an_arm_thrown_forward_is_one_person_and_two_people_side_by
     assert len(split_side_by_side(np.concatenate([body, arm, leg]), 0.4)) == 1  # (before the waist test: 2)
     pair = np.concatenate([_standing(rng, 0.0, -0.3), _standing(rng, 0.0, 0.35)])
     assert len(split_side_by_side(pair, 0.4)) == 2
+    # someone taller half hidden behind another: only legs, shoulders and head seen (no waist): two people
+    behind = _standing(rng, 0.4, 0.45)
+    behind = behind[(behind[:, 2] < 0.6) | (behind[:, 2] > 1.3)]
+    behind[:, 2] += np.where(behind[:, 2] > 1.3, 0.15, 0.0)
+    assert len(split_side_by_side(np.concatenate([_standing(rng, 0.0, -0.2), behind]), 0.4)) == 2
 
 
 def _seen(hidden: HiddenPeople, frames: list[dict[int, tuple[float, float]]], t0: float = 0.0) -> list[int]:
