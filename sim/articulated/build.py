@@ -108,11 +108,6 @@ def build_multibody(client: int, skeleton: ArticulatedSkeleton, root_position: V
         p.setCollisionFilterGroupMask(body, pj, GROUP_CHARACTER, MASK_CHARACTER, physicsClientId=client)
         p.changeDynamics(body, pj, lateralFriction=friction, linearDamping=0.0, angularDamping=0.0,
                          restitution=0.0, physicsClientId=client)
-        if j > 0:
-            p.changeDynamics(body, pj, localInertiaDiagonal=link.inertia, physicsClientId=client)
-            if link.kind == "hinge":
-                p.changeDynamics(body, pj, jointLowerLimit=link.lower, jointUpperLimit=link.upper,
-                                 physicsClientId=client)
         if link.kind in ("ball", "universal", "hinge"):  # switch off pybullet's default velocity motors
             if link.kind == "hinge":
                 p.setJointMotorControl2(body, pj, p.VELOCITY_CONTROL, force=0.0, physicsClientId=client)
