@@ -29,6 +29,9 @@ every frame, fuses them, and scores against the truth:
   ``velocity_direction_error_deg_p95_sampled_truth``: the ceiling the frame rate sets: the same angle
   for the exact true hand/foot centres (of everyone present, moving faster than 0.5 m/s) differenced
   from the previous depth frame to this one (what a perfect tracker at that rate would claim).
+  ``velocity_direction_error_deg_p95_vs_frame_step``: the claimed velocities of the main figure against
+  that same step of the part they are at: the tracker's own error, with the frame rate's taken out.
+  (Where the hands and feet really are, and both references: :mod:`jostle.bench_truth`.)
 - ``person_count_accuracy``: depth frames (after learning) whose count of people is the count of
   people whose pelvis is inside the depth camera's view; frames with someone within 0.4 m of the
   view's edge are ambiguous and not counted (``person_count_frames`` says how many were).
@@ -37,7 +40,6 @@ every frame, fuses them, and scores against the truth:
 from __future__ import annotations
 
 import argparse
-import math
 import resource
 import tempfile
 import time
@@ -45,6 +47,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from jostle.bench_truth import (
+    MOVING_M_S,
+    SAME_PART_M,
+    angle_deg,
+    part_centres,
+    sampled_truth_angles,
+    true_steps,
+    visible_people,
+)
 
 TARGETS: dict[str, tuple[str, float]] = {
     "webcam_fps": (">=", 120.0), "webcam_pose_fps": (">=", 0.0), "depth_fps": (">=", 200.0),
@@ -122,12 +134,13 @@ class _Scores:
         self.webcam_error: list[float] = []
         self.angle: list[float] = []
         self.angle_sampled_truth: list[float] = []  # the exact centres differenced at the depth frames' times
+        self.angle_vs_step: list[float] = []  # the claimed velocities against the true part's last frame step
         self.count_right = 0
         self.count_frames = 0
-        self.found = 0  # true hands/feet with a depth contactor of the part within _SAME_PART_M
+        self.found = 0  # true hands/feet with a depth contactor of the part within SAME_PART_M
         self.truths = 0
         self.withheld = 0  # contactors at a moving hand/foot that claimed no velocity
-        self.webcam_found = 0  # true hands/feet in the webcam's image with a contactor of the part within _SAME_PART_M
+        self.webcam_found = 0  # true hands/feet in the webcam's image with a contactor of the part within SAME_PART_M
         self.webcam_truths = 0
 
     def figures(self) -> dict[str, Any]:
@@ -157,6 +170,8 @@ class _Scores:
             "velocity_direction_error_deg_p50_sampled_truth": p(self.angle_sampled_truth, 50, 1),
             "velocity_samples_sampled_truth": len(self.angle_sampled_truth),
             "velocity_withheld": self.withheld,
+            "velocity_direction_error_deg_p95_vs_frame_step": p(self.angle_vs_step, 95, 1),
+            "velocity_direction_error_deg_p50_vs_frame_step": p(self.angle_vs_step, 50, 1),
             "depth_extremity_found_share": round(self.found / self.truths, 3) if self.truths else None,
             "webcam_extremity_found_share": (round(self.webcam_found / self.webcam_truths, 3)
                                              if self.webcam_truths else None),
@@ -221,7 +236,7 @@ def _score_recording(path: Path, scores: _Scores, *, pose: bool) -> None:
         previous_truth = frame_truth
         if depth.learning or frame_truth is None:
             continue
-        _depth_errors(obs, frame_truth, scores)
+        _depth_errors(obs, frame_truth, last_truth, scores)
         if last_truth is not None:
             scores.angle_sampled_truth.extend(sampled_truth_angles(last_truth, frame_truth))
         expected = visible_people(frame_truth, cameras["oak"])
@@ -258,90 +273,34 @@ def _depth_calibration(images: list[Any], camera_position: tuple[float, float, f
     return calibrate_depth(fit, (camera_position[0], camera_position[1]), 0.0, im.size)
 
 
-# Where the virtual performer's hand and foot really are (jostle.synth.dress, per metre of body size):
-# the hand is a sphere 2 cm beyond the wrist along the forearm; the shoe a box whose centre is 46.6 % of
-# the way from the ankle to the toe and 1.2 cm below that line (toward the sole). Contactors are compared
-# with these centres, not with the wrist and ankle joints they hang from.
-_SAME_PART_M = 0.10  # a contactor this near a true hand (foot) is that hand: its velocity is compared
-_HAND_BEYOND_WRIST_M = 0.02
-_FOOT_ALONG = 0.4658
-_FOOT_BELOW_M = 0.01225
-
-
-def body_part_centres(person: Any, part: str) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(position, velocity) of one person's two hands (hand-sphere centres) or feet (shoe centres)."""
-    from sim.motion.mocap import HUMANOID
-
-    j, v = person.joints, person.velocities
-    out = []
-    for side in ("right", "left"):
-        if part == "hand":
-            w, e = HUMANOID.names.index(f"{side}_wrist"), HUMANOID.names.index(f"{side}_elbow")
-            fore = j[w] - j[e]
-            length = max(float(np.linalg.norm(fore)), 1e-9)
-            out.append((j[w] + fore / length * _HAND_BEYOND_WRIST_M * person.size, v[w]))
-        else:
-            a, t = HUMANOID.names.index(f"{side}_ankle"), HUMANOID.names.index(f"{side}_toe")
-            along = j[t] - j[a]
-            up = np.array([0.0, 0.0, 1.0]) - along * (along[2] / max(float(along @ along), 1e-12))
-            up /= max(float(np.linalg.norm(up)), 1e-9)
-            centre = j[a] + _FOOT_ALONG * along - up * _FOOT_BELOW_M * person.size
-            out.append((centre, v[a] + _FOOT_ALONG * (v[t] - v[a])))
-    return out
-
-
-def _joint_sets(frame_truth: Any, part: str) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(position, velocity) of every true hand or foot centre of everyone on the stage."""
-    return [c for person in frame_truth.people if person.present for c in body_part_centres(person, part)]
-
-
-def _depth_errors(obs: Any, frame_truth: Any, scores: _Scores) -> None:
+def _depth_errors(obs: Any, frame_truth: Any, last_truth: Any, scores: _Scores) -> None:
     for part in ("hand", "foot"):
-        joints = _joint_sets(frame_truth, part)
+        joints = part_centres(frame_truth, part)
         if not joints:
             continue
-        pos = np.array([j[0] for j in joints])
+        steps = true_steps(last_truth, frame_truth, part) if last_truth is not None else {}
+        pos = np.array([j[1] for j in joints])
         mine = [c for c in obs.contactors if c.part == part]
         if mine:
             near = np.min(np.linalg.norm(pos[:, None, :] - np.array([c.position for c in mine])[None], axis=2), axis=1)
-            scores.found += int(np.count_nonzero(near <= _SAME_PART_M))
+            scores.found += int(np.count_nonzero(near <= SAME_PART_M))
         scores.truths += len(joints)
         for c in mine:
             d = np.linalg.norm(pos - np.array(c.position), axis=1)
             k = int(np.argmin(d))
             scores.depth_error.append(float(d[k]))
-            true_v, v = joints[k][1], np.array(c.velocity)
-            if np.linalg.norm(true_v) <= 0.5 or d[k] > _SAME_PART_M:
+            key, true_v, v = joints[k][0], joints[k][2], np.array(c.velocity)
+            if np.linalg.norm(true_v) <= MOVING_M_S or d[k] > SAME_PART_M:
                 continue  # velocity: only for a contactor that is at a moving hand (foot)
-            if np.linalg.norm(v) <= 1e-9:
+            angle = angle_deg(v, true_v)
+            if angle is None:
                 scores.withheld += 1
                 continue
-            cos = float(v @ true_v / (np.linalg.norm(v) * np.linalg.norm(true_v)))
-            scores.angle.append(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
-
-
-def sampled_truth_angles(before: Any, now: Any) -> list[float]:
-    """The velocity direction error of a perfect tracker at the depth frame rate: for each true hand
-    and foot centre moving faster than 0.5 m/s in ``now``, the angle between its step from ``before``
-    (the previous depth frame's truth, same person and side) over the time between them and its true
-    velocity (degrees)."""
-    dt = now.t - before.t
-    if dt <= 0:
-        return []
-    earlier = {person.id: person for person in before.people if person.present}
-    out = []
-    for person in now.people:
-        was = earlier.get(person.id)
-        if not person.present or was is None:
-            continue
-        for part in ("hand", "foot"):
-            for (pos, true_v), (pos0, _) in zip(body_part_centres(person, part), body_part_centres(was, part), strict=True):
-                step = (pos - pos0) / dt
-                if np.linalg.norm(true_v) <= 0.5 or np.linalg.norm(step) <= 1e-9:
-                    continue
-                cos = float(step @ true_v / (np.linalg.norm(step) * np.linalg.norm(true_v)))
-                out.append(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
-    return out
+            scores.angle.append(angle)
+            step = steps.get(key)
+            step_angle = angle_deg(v, step) if step is not None else None
+            if step_angle is not None:
+                scores.angle_vs_step.append(step_angle)
 
 
 def _webcam_errors(obs: Any, frame_truth: Any, camera: Any, homography: np.ndarray, scores: _Scores) -> None:
@@ -350,10 +309,10 @@ def _webcam_errors(obs: Any, frame_truth: Any, camera: Any, homography: np.ndarr
     if frame_truth is None:
         return
     for part in ("hand", "foot"):
-        joints = _joint_sets(frame_truth, part)
+        joints = part_centres(frame_truth, part)
         if not joints:
             continue
-        uv = camera.project(np.array([j[0] for j in joints]))
+        uv = camera.project(np.array([j[1] for j in joints]))
         on_plane = apply_homography(homography, uv)
         mine = np.array([[c.position[0], c.position[2]] for c in obs.contactors if c.part == part]).reshape(-1, 2)
         for xz in mine:
@@ -363,28 +322,7 @@ def _webcam_errors(obs: Any, frame_truth: Any, camera: Any, homography: np.ndarr
         scores.webcam_truths += int(np.count_nonzero(inside))
         if len(mine):
             near = np.min(np.linalg.norm(on_plane[:, None, :] - mine[None], axis=2), axis=1)
-            scores.webcam_found += int(np.count_nonzero(inside & (near <= _SAME_PART_M)))
-
-
-def visible_people(frame_truth: Any, camera: Any) -> int | None:
-    """How many pelvises are inside the view; None when one is within 0.4 m of its edge (ambiguous)."""
-    from sim.motion.mocap import HUMANOID
-
-    root = HUMANOID.names.index("root")
-    seen = 0
-    for person in frame_truth.people:
-        if not person.present:
-            continue
-        p = person.joints[root]
-        depth = float(camera.to_camera(p)[2])
-        margin = 0.4 * camera.focal_px / max(depth, 0.1)
-        u, v = camera.project(p)
-        inside = 0 <= u < camera.width and 0 <= v < camera.height
-        near_edge = -margin <= u < camera.width + margin and not (margin <= u < camera.width - margin)
-        if near_edge:
-            return None
-        seen += int(inside)
-    return seen
+            scores.webcam_found += int(np.count_nonzero(inside & (near <= SAME_PART_M)))
 
 
 def _met(value: Any, op: str, target: float) -> bool | None:

@@ -17,7 +17,8 @@ import pytest
 
 from interaction.depth import DepthObserver, DepthObserverConfig
 from interaction.types import BodyObservation
-from jostle.bench_interaction import _depth_calibration, body_part_centres
+from jostle.bench_interaction import _depth_calibration
+from jostle.bench_truth import body_part_centres
 from jostle.synth.truth import TruthFrame, read_cameras, read_truth
 from sensors.base import DepthImage, Frame
 from sensors.recording_info import iter_payloads

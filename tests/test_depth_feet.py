@@ -12,7 +12,7 @@ from interaction import depth_parts
 from interaction.depth_calibration import DepthCalibration
 from interaction.depth_parts import FineDepth, find_feet
 from interaction.limb_tracks import LimbTracker
-from jostle.bench_interaction import sampled_truth_angles
+from jostle.bench_truth import sampled_truth_angles
 from jostle.synth.truth import PersonTruth, TruthFrame
 from sensors.base import DepthImage
 from sim.motion.mocap import HUMANOID
