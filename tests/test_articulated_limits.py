@@ -22,11 +22,13 @@ from sim.snapshot import CharacterState
 
 DT = 1.0 / 240.0
 # Bound on the excess, every joint, every step of a walk, a push, a fall, lying and a get-up. The engine's
-# limits are one-sided constraints that correct a fifth of a violation per step (bullet's default), and the
+# limits are one-sided constraints that correct a small share of a violation per step (see the next test), and the
 # spherical limit's rows act along the child frame's axes, not exactly along the angles it measures, so an
 # impact can carry a joint a few degrees past its limit for a few steps. Measured in this run: 4.5° at worst
 # pushed back (an ankle, falling), 5.8° pushed forward (a knee, falling), under 2.5° while walking,
 # staggering or getting up — against 11–21° with the former explicit stops and 22–42° where they were off.
+# (Harder cases, sideways pushes just short of a fall, are measured by ``jostle bench ragdoll``:
+# ``joint_limit_excess_deg``.)
 BOUND_DEG = 7.0
 
 
@@ -44,7 +46,7 @@ def test_limits_hold_through_a_walk_a_push_a_fall_and_a_get_up(client: int, skel
         p.stepSimulation(physicsClientId=client)
         e = ch.tracker.limits.excess(ch.joint_angles())
         assert np.isfinite(e).all()
-        assert ch.limit_excess() == float(e.max())
+        assert ch.limit_excess() == pytest.approx(float(e.max()), abs=1e-9)  # the float path, joint by joint
         for k in np.nonzero(e > 0.0)[0]:
             key = f"{ch.state.name}:{skeleton.links[ch.driven[k]].name}"
             worst[key] = max(worst.get(key, 0.0), math.degrees(float(e[k])))
@@ -89,6 +91,26 @@ def test_the_engine_stops_a_joint_at_its_range_about_each_axis(client: int) -> N
         assert angle == pytest.approx(limit, abs=0.01)  # free, 3 N·m for 2 s would turn it far beyond
 
 
+def test_a_joint_thrown_past_its_limit_comes_back_slowly(client: int) -> None:
+    """A measured trap of the engine's spherical limit: its rows ask back its own 0.2 of the excess times the
+    solver's erp (pybullet's default 0.2, which the world keeps) per step, so a joint set 15° past its limit,
+    at rest, goes back at 0.6° a step and is still 9° out after 10 steps. (At erp 1.0 it was inside in 5;
+    the world keeps 0.2 because, measured, that made joints overshoot less but changed the walk enough that
+    one walk-off after a get-up fell again: ``jostle bench ragdoll`` reports the overshoot.)"""
+    ranges = (0.5, 0.8, 0.3)
+    body = _one_joint_body(client, ranges)
+    half = 0.5 * (ranges[2] + math.radians(15.0))
+    past = [0.0, 0.0, math.sin(half), math.cos(half)]  # 15° past the twist range
+    p.resetJointStateMultiDof(body, 0, past, [0, 0, 0], physicsClientId=client)
+    out = []
+    for _ in range(10):
+        p.stepSimulation(physicsClientId=client)
+        q = np.array(p.getJointStateMultiDof(body, 0, physicsClientId=client)[0])
+        out.append(math.degrees(float(limit_excess(q[None], np.array([ranges]))[0])))
+    assert out[0] == pytest.approx(14.4, abs=0.1)  # 0.2 × 0.2 of 15° in the first step
+    assert out[9] == pytest.approx(9.0, abs=0.3)  # then on at that speed (the row holds no position)
+
+
 def test_the_measured_excess_is_the_engines(client: int) -> None:
     """On random rotations, the engine pushes back exactly those ``limit_excess`` calls outside, and a
     rotation ``clamp_inside`` brought in is left alone."""
@@ -116,3 +138,17 @@ def test_the_body_carries_each_joints_limit(skeleton: ArticulatedSkeleton) -> No
     text = urdf_text(skeleton)
     assert text.count('type="spherical"') == sum(link.kind in ("ball", "universal") for link in skeleton.links)
     assert text.count(" twist=") == text.count('type="spherical"')
+
+
+
+def test_the_float_excess_is_the_vectorised_one(client: int, skeleton: ArticulatedSkeleton) -> None:
+    """``limit_excess`` (per physics step in the bench) takes the float path joint by joint: the same figure
+    as the vectorised measure on random rotations, signs flipped or not, hinges included."""
+    limits = ArticulatedCharacter(client, skeleton, ArticulatedSpec(), None, (0.0, 0.0), 0.0).tracker.limits
+    rng = np.random.default_rng(5)
+    for k in range(500):
+        rots = rng.normal(size=(len(limits.hinge), 4))
+        rots /= np.linalg.norm(rots, axis=1, keepdims=True)
+        if k % 2:
+            rots = -rots
+        assert limits.worst_excess(rots) == pytest.approx(float(limits.excess(rots).max()), abs=1e-9)

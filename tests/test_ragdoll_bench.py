@@ -7,12 +7,12 @@ import math
 import pytest
 
 from jostle.bench_cli import BENCHES, main_json
-from jostle.bench_ragdoll import KEYS
+from jostle.bench_ragdoll import EXTRA_KEYS, KEYS
 
 
 def test_quick_bench_reports_the_issues_keys() -> None:
     figures = main_json("ragdoll", ["--quick"])
-    assert tuple(figures) == KEYS
+    assert tuple(figures) == KEYS + EXTRA_KEYS
     assert figures["characters"] == 1 and figures["physics_hz"] == pytest.approx(240.0)
     rt, ratio = figures["realtime_factor"], figures["cost_ratio_vs_baseline"]
     assert isinstance(rt, float) and rt > 0 and isinstance(ratio, float) and ratio > 0
@@ -25,6 +25,8 @@ def test_quick_bench_reports_the_issues_keys() -> None:
     assert figures["getup_success"] == (None if survived == (600.0, 600.0) else 0.0)
     assist = figures["external_assist_n"]
     assert isinstance(assist, float) and assist >= 0 and math.isfinite(assist)
+    excess = figures["joint_limit_excess_deg"]
+    assert isinstance(excess, float) and 0 <= excess < 180
     assert "ragdoll" in BENCHES
 
 

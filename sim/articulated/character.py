@@ -156,7 +156,7 @@ class ArticulatedCharacter:
 
     def limit_excess(self) -> float:
         """Largest amount (radians) by which any joint is outside its limits now (0 inside)."""
-        return float(self.tracker.limits.excess(self.joint_angles()).max())
+        return self.tracker.limits.worst_excess(self.joint_angles())
 
     # ------------------------------------------------------------------ inputs
     def push(self, link: int | str, force: tuple[float, float, float], duration: float) -> None:
