@@ -18,7 +18,9 @@ In one process, on the world's physics settings (``sim.physics.open_client``, 1/
    saveState + the character's Python state) before each strength. ``max_survived_*_n`` is the
    *smallest* over the phases of the largest strength survived (0: the first strength felled it);
 4. get-up: every fall of step 3 is followed for ``--getup-window`` s from the moment it started;
-   ``getup_success`` is the fraction that reached WALK again (None when nothing fell);
+   ``getup_success`` is the fraction that reached WALK again (None when nothing fell); and each that did is
+   watched for 6 s more: ``walkoff_success`` is the fraction that walked on 2 m or more without falling
+   again (the clip is resumed from a stand, its hardest moment);
 5. ``external_assist_n``: the largest external force any character put on its own root (0 if none);
    the largest assist torque is printed on stderr;
 6. ``joint_limit_excess_deg``: the most any joint of any character went past its limit, read after every
@@ -34,21 +36,20 @@ Details (per phase, the baseline's fall time, assist torque) go to stderr; the f
 from __future__ import annotations
 
 import argparse
-import contextlib
 import copy
 import math
-import os
-import sys
 import time
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from jostle.ragdoll_baseline import BenchSim, baseline, log
+
 KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
         "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")
-EXTRA_KEYS = ("joint_limit_excess_deg",)  # beyond the issue's: measured because it asks that limits hold
+EXTRA_KEYS = ("walkoff_success", "joint_limit_excess_deg")  # beyond the issue's keys: what else it asks
+WALK_ON_S, WALK_ON_M = 6.0, 2.0  # a get-up is followed by this long, in which this far must be walked
 DOWN = ("fall", "lie", "stand_up")  # CharacterState values that count as fallen
 PUSH_S = 0.2
 
@@ -96,33 +97,7 @@ def _settings(args: argparse.Namespace) -> argparse.Namespace:
     return s
 
 
-def _log(msg: str) -> None:
-    print(f"bench ragdoll: {msg}", file=sys.stderr)
-
-
-@dataclass
-class _Sim:
-    """One pybullet client on the world's physics settings."""
-
-    client: int
-    dt: float
-
-    @classmethod
-    def open(cls) -> _Sim:
-        from sim.config import WorldConfig
-        from sim.physics import open_client
-
-        cfg = WorldConfig()
-        client, _ = open_client(cfg)
-        return cls(client, cfg.physics_dt)
-
-    def close(self) -> None:
-        import pybullet as p
-
-        p.disconnect(physicsClientId=self.client)
-
-
-def _new_character(sim: _Sim, position: tuple[float, float]) -> Any:
+def _new_character(sim: BenchSim, position: tuple[float, float]) -> Any:
     """An articulated character (helper G1's API) on the DeepMimic skeleton, walking along +x."""
     from sim.articulated.character import ArticulatedCharacter
     from sim.articulated.skeleton import deepmimic_humanoid
@@ -131,7 +106,7 @@ def _new_character(sim: _Sim, position: tuple[float, float]) -> Any:
     return ArticulatedCharacter(sim.client, deepmimic_humanoid(), ArticulatedSpec(), None, position, 0.0)
 
 
-def _run(sim: _Sim, chars: list[Any], steps: int, each: Callable[[int], None] | None = None) -> float:
+def _run(sim: BenchSim, chars: list[Any], steps: int, each: Callable[[int], None] | None = None) -> float:
     """Step control + physics ``steps`` times; returns the wall seconds spent in them (``each`` excluded)."""
     import pybullet as p
 
@@ -149,7 +124,7 @@ def _run(sim: _Sim, chars: list[Any], steps: int, each: Callable[[int], None] | 
 
 def walking(n: int, seconds: float) -> tuple[float, float, float, float, float]:
     """(wall s, simulated s, mean tracking error deg, peak assist N, peak assist N·m) for n walkers."""
-    sim = _Sim.open()
+    sim = BenchSim.open()
     try:
         chars = [_new_character(sim, (0.0, 2.0 * i)) for i in range(n)]
         every = max(1, round(1.0 / 30.0 / sim.dt))
@@ -165,93 +140,14 @@ def walking(n: int, seconds: float) -> tuple[float, float, float, float, float]:
         wall = _run(sim, chars, steps, sample)
         down = sum(str(c.state) in DOWN for c in chars)
         if down:
-            _log(f"walking: {down} of {n} characters fell while walking unpushed")
-        _log("walking: time in each state " + ", ".join(f"{k} {states.count(k) / len(states):.0%}"
+            log(f"walking: {down} of {n} characters fell while walking unpushed")
+        log("walking: time in each state " + ", ".join(f"{k} {states.count(k) / len(states):.0%}"
                                                        for k in sorted(set(states))))
         force = max(float(getattr(c, "external_assist_peak_n", 0.0)) for c in chars)
         torque = max(float(getattr(c, "external_assist_peak_nm", 0.0)) for c in chars)
         return wall, steps * sim.dt, float(np.mean(errors)) if errors else math.nan, force, torque
     finally:
         sim.close()
-
-
-def baseline(n: int, seconds: float) -> float:
-    """Wall seconds for n DeepMimic humanoids tracking the walk clip with pybullet's stable PD."""
-    import pybullet as p
-
-    from sim.articulated.build import source_to_stage
-    from sim.articulated.skeleton import deepmimic_humanoid, deepmimic_urdf_path
-    from sim.articulated.spec import ArticulatedSpec
-    from sim.motion import quaternion as quat
-    from sim.motion.mocap import JOINTS, REVOLUTE, MotionClip, pybullet_motion_path
-
-    sim = _Sim.open()
-    try:
-        c = sim.client
-        clip = MotionClip.load(pybullet_motion_path(ArticulatedSpec().walk_clip))
-        spec = ArticulatedSpec()
-        up = source_to_stage(deepmimic_humanoid())
-        urdf = str(deepmimic_urdf_path())
-        with _quiet_stderr():  # the URDF has no axes for its spherical joints: pybullet warns per joint
-            bodies = [p.loadURDF(urdf, [0.0, 2.0 * i, 1.0], up.tolist(), globalScaling=0.25,
-                                 flags=p.URDF_MAINTAIN_LINK_ORDER, physicsClientId=c) for i in range(n)]
-        index = {p.getJointInfo(bodies[0], j, physicsClientId=c)[1].decode(): j
-                 for j in range(p.getNumJoints(bodies[0], physicsClientId=c))}
-        joints = [index[name] for name in JOINTS]
-        group = {"chest": "torso", "neck": "neck"}
-        gains = [spec.gains(group.get(name, name.split("_")[-1])) for name in JOINTS]
-        kp, kd = [g[0] for g in gains], [g[1] for g in gains]
-        forces = [[g[2]] if name in REVOLUTE else [g[2]] * 3 for g, name in zip(gains, JOINTS, strict=True)]
-        rest_v = [[0.0] if name in REVOLUTE else [0.0, 0.0, 0.0] for name in JOINTS]
-
-        def targets(t: float) -> tuple[np.ndarray, np.ndarray, list[list[float]]]:
-            pos, rot, rots = clip.sample(t)
-            out = [[2.0 * math.atan2(q[2], q[3])] if name in REVOLUTE else q.tolist()
-                   for q, name in zip(rots, JOINTS, strict=True)]
-            return pos, rot, out
-
-        pos, rot, start = targets(0.0)
-        for i, b in enumerate(bodies):
-            root = quat.rotate(up, pos) + np.array([0.0, 2.0 * i, 0.0])
-            p.resetBasePositionAndOrientation(b, root.tolist(), quat.multiply(up, rot).tolist(), physicsClientId=c)
-            for j, q in zip(joints, start, strict=True):
-                p.resetJointStateMultiDof(b, j, q, physicsClientId=c)
-        steps = round(seconds / sim.dt)
-        fell_at: float | None = None
-        spent = 0.0
-        for s in range(steps):
-            mark = time.perf_counter()
-            _, _, target = targets(s * sim.dt)
-            for b in bodies:
-                p.setJointMotorControlMultiDofArray(b, joints, p.STABLE_PD_CONTROL, targetPositions=target,
-                                                    targetVelocities=rest_v, positionGains=kp, velocityGains=kd,
-                                                    forces=forces, physicsClientId=c)
-            p.stepSimulation(physicsClientId=c)
-            spent += time.perf_counter() - mark
-            if fell_at is None and p.getBasePositionAndOrientation(bodies[0], physicsClientId=c)[0][2] < 0.45:
-                fell_at = s * sim.dt
-        _log("baseline: " + (f"fell after {fell_at:.1f} s (no balance, as expected)" if fell_at is not None
-                             else "stayed up"))
-        return spent
-    finally:
-        sim.close()
-
-
-@contextlib.contextmanager
-def _quiet_stderr() -> Iterator[None]:
-    """File descriptors 1 and 2 to /dev/null (pybullet's C-level warnings go to both), restored after."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    saved = [os.dup(1), os.dup(2)]
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 1)
-            os.dup2(null.fileno(), 2)
-            yield
-    finally:
-        for fd, keep in zip((1, 2), saved, strict=True):
-            os.dup2(keep, fd)
-            os.close(keep)
 
 
 def _direction(char: Any, side: bool) -> np.ndarray:
@@ -265,9 +161,9 @@ def _direction(char: Any, side: bool) -> np.ndarray:
     return np.array([-fwd[1], fwd[0], 0.0]) if side else fwd
 
 
-def _walked(s: argparse.Namespace, phase: int, worst: _Worst) -> tuple[_Sim, Any]:
+def _walked(s: argparse.Namespace, phase: int, worst: _Worst) -> tuple[BenchSim, Any]:
     """A fresh character walked for the warm-up plus ``phase``/``phases`` of a clip cycle."""
-    sim = _Sim.open()
+    sim = BenchSim.open()
     char = _new_character(sim, (0.0, 0.0))
     cycle = float(char.walk.duration) if hasattr(char, "walk") else 1.3
     _run(sim, [char], round((s.warmup + cycle * phase / s.phases) / sim.dt), lambda _: worst.see([char]))
@@ -288,7 +184,7 @@ class _Checkpoint:
             self.state = p.saveState(physicsClientId=self.sim.client)
         except (TypeError, copy.Error):
             self.saved = None
-            _log("the character's state cannot be copied: every push walks again from the start")
+            log("the character's state cannot be copied: every push walks again from the start")
 
     def restore(self) -> Any:
         import pybullet as p
@@ -303,17 +199,19 @@ class _Checkpoint:
         return self.char
 
 
-def push_test(s: argparse.Namespace, side: bool, worst: _Worst) -> tuple[float, list[float], list[bool], tuple[float, float]]:
-    """(smallest over phases of the largest strength survived, per-phase values, get-up outcomes,
-    (peak assist N, peak assist N·m))."""
+def push_test(s: argparse.Namespace, side: bool,
+              worst: _Worst) -> tuple[float, list[float], list[bool], list[bool], tuple[float, float]]:
+    """(smallest over phases of the largest strength survived, per-phase values, get-up outcomes, walk-off
+    outcomes of those that stood, (peak assist N, peak assist N·m))."""
     survived: list[float] = []
     getups: list[bool] = []
+    walkoffs: list[bool] = []
     peak = [0.0, 0.0]
     for k in range(s.phases):
         point = _Checkpoint(s, k, worst)
         try:
             if str(point.char.state) in DOWN:
-                _log(f"push {'side' if side else 'forward'} phase {k}: fell before the push (counts as 0 N)")
+                log(f"push {'side' if side else 'forward'} phase {k}: fell before the push (counts as 0 N)")
                 survived.append(0.0)
                 continue
             best, force = 0.0, float(s.push_start)
@@ -323,6 +221,8 @@ def push_test(s: argparse.Namespace, side: bool, worst: _Worst) -> tuple[float, 
                 fell_at = _watch(point.sim, char, s.after, worst)
                 if fell_at is not None:
                     getups.append(_stands_again(point.sim, char, s.getup_window - (s.after - fell_at), worst))
+                    if getups[-1] and not s.quick:
+                        walkoffs.append(_walks_on(point.sim, char, worst))
                 peak[0] = max(peak[0], float(getattr(char, "external_assist_peak_n", 0.0)))
                 peak[1] = max(peak[1], float(getattr(char, "external_assist_peak_nm", 0.0)))
                 if fell_at is not None:
@@ -332,11 +232,12 @@ def push_test(s: argparse.Namespace, side: bool, worst: _Worst) -> tuple[float, 
             survived.append(best)
         finally:
             point.sim.close()
-    return min(survived), survived, getups, (peak[0], peak[1])
+    return min(survived), survived, getups, walkoffs, (peak[0], peak[1])
 
 
-def _watch(sim: _Sim, char: Any, seconds: float, worst: _Worst) -> float | None:
-    """Step for ``seconds``; the time (s from now) it went down, or None if it stayed up."""
+def _watch(sim: BenchSim, char: Any, seconds: float, worst: _Worst, settle: bool = True) -> float | None:
+    """Step for ``seconds``; the time (s from now) it went down, or None if it stayed up (with ``settle``,
+    a fall is followed to the end of ``seconds``; without, the watch stops there)."""
     import pybullet as p
 
     for s in range(round(seconds / sim.dt)):
@@ -344,13 +245,22 @@ def _watch(sim: _Sim, char: Any, seconds: float, worst: _Worst) -> float | None:
         p.stepSimulation(physicsClientId=sim.client)
         worst.see([char])
         if str(char.state) in DOWN:
-            rest = seconds - (s + 1) * sim.dt
-            _run(sim, [char], max(0, round(rest / sim.dt)), lambda _: worst.see([char]))
+            if settle:
+                rest = seconds - (s + 1) * sim.dt
+                _run(sim, [char], max(0, round(rest / sim.dt)), lambda _: worst.see([char]))
             return (s + 1) * sim.dt
     return None
 
 
-def _stands_again(sim: _Sim, char: Any, seconds: float, worst: _Worst) -> bool:
+def _walks_on(sim: BenchSim, char: Any, worst: _Worst) -> bool:
+    """Whether a character that just stood up walks ``WALK_ON_M`` in ``WALK_ON_S`` without falling again."""
+    start = np.array(char.root()[0], dtype=float)
+    fell = _watch(sim, char, WALK_ON_S, worst, settle=False) is not None
+    moved = float(np.linalg.norm((np.array(char.root()[0], dtype=float) - start)[:2]))
+    return not fell and moved >= WALK_ON_M
+
+
+def _stands_again(sim: BenchSim, char: Any, seconds: float, worst: _Worst) -> bool:
     """Whether it is walking again within ``seconds`` more."""
     import pybullet as p
 
@@ -374,14 +284,14 @@ def run(args: argparse.Namespace) -> dict[str, object]:
     worst = _Worst()
     wall, simulated, error, assist_n, assist_nm = walking(s.characters, s.seconds)
     base = baseline(s.characters, s.seconds)
-    forward, per_fwd, up_fwd, peak_fwd = push_test(s, side=False, worst=worst)
-    sideways, per_side, up_side, peak_side = push_test(s, side=True, worst=worst)
+    forward, per_fwd, up_fwd, on_fwd, peak_fwd = push_test(s, side=False, worst=worst)
+    sideways, per_side, up_side, on_side, peak_side = push_test(s, side=True, worst=worst)
     assist_n = max(assist_n, peak_fwd[0], peak_side[0])
     assist_nm = max(assist_nm, peak_fwd[1], peak_side[1])
-    _log(f"pushes survived per phase (N): forward {per_fwd}, sideways {per_side}; the figures are the minimum")
-    getups = up_fwd + up_side
-    _log(f"falls {len(getups)}, stood again within {s.getup_window:g} s: {sum(getups)}; "
-         f"peak assist torque {assist_nm:.1f} N·m")
+    log(f"pushes survived per phase (N): forward {per_fwd}, sideways {per_side}; the figures are the minimum")
+    getups, walkoffs = up_fwd + up_side, on_fwd + on_side
+    log(f"falls {len(getups)}, stood again within {s.getup_window:g} s: {sum(getups)}, then walked on "
+        f"{WALK_ON_M:g} m in {WALK_ON_S:g} s: {sum(walkoffs)}; peak assist torque {assist_nm:.1f} N·m")
     figures: dict[str, object] = {
         "characters": s.characters,
         "physics_hz": round(hz, 3),
@@ -392,6 +302,7 @@ def run(args: argparse.Namespace) -> dict[str, object]:
         "max_survived_side_n": sideways,
         "getup_success": round(sum(getups) / len(getups), 3) if getups else None,
         "external_assist_n": round(assist_n, 1),
+        "walkoff_success": round(sum(walkoffs) / len(walkoffs), 3) if walkoffs else None,
         "joint_limit_excess_deg": round(math.degrees(worst.rad), 2),
     }
     return figures

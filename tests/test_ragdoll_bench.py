@@ -25,6 +25,7 @@ def test_quick_bench_reports_the_issues_keys() -> None:
     assert figures["getup_success"] == (None if survived == (600.0, 600.0) else 0.0)
     assist = figures["external_assist_n"]
     assert isinstance(assist, float) and assist >= 0 and math.isfinite(assist)
+    assert figures["walkoff_success"] is None  # quick: nothing stands again in 0.5 s
     excess = figures["joint_limit_excess_deg"]
     assert isinstance(excess, float) and 0 <= excess < 180
     assert "ragdoll" in BENCHES
