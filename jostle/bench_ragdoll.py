@@ -142,7 +142,7 @@ def walking(n: int, seconds: float) -> tuple[float, float, float, float, float]:
         if down:
             log(f"walking: {down} of {n} characters fell while walking unpushed")
         log("walking: time in each state " + ", ".join(f"{k} {states.count(k) / len(states):.0%}"
-                                                       for k in sorted(set(states))))
+                                                      for k in sorted(set(states))))
         force = max(float(getattr(c, "external_assist_peak_n", 0.0)) for c in chars)
         torque = max(float(getattr(c, "external_assist_peak_nm", 0.0)) for c in chars)
         return wall, steps * sim.dt, float(np.mean(errors)) if errors else math.nan, force, torque

@@ -96,7 +96,7 @@ def baseline(n: int, seconds: float) -> float:
             if fell_at is None and p.getBasePositionAndOrientation(bodies[0], physicsClientId=c)[0][2] < 0.45:
                 fell_at = s * sim.dt
         log("baseline: " + (f"fell after {fell_at:.1f} s (no balance, as expected)" if fell_at is not None
-                             else "stayed up"))
+                            else "stayed up"))
         return spent
     finally:
         sim.close()
