@@ -72,6 +72,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--people", default="1,2,3,4", help="the crossings to record (default 1,2,3,4)")
     parser.add_argument("--duration", type=float, default=5.0, metavar="S", help="seconds per recording (default 5)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--fps", type=float, default=15.0,
+                        help="frame rate the webcam and the depth camera are recorded at (default 15; installations "
+                             "run the OAK at 30): it sets how far a hand moves between frames")
     parser.add_argument("--keep", type=Path, default=None, metavar="DIR", help="record into DIR and keep the files (recordings already there are reused)")
 
 
@@ -87,6 +90,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError(f"--people: expected numbers 1..4 like 1,2,3,4, got {args.people!r}")
     if args.quick:
         counts = [n for n in counts if n <= 2][:2] or [1]
+    if not (isinstance(args.fps, int | float) and 1.0 <= args.fps <= 120.0):
+        raise ValueError(f"--fps: expected a frame rate from 1 to 120, got {args.fps!r}")
     size, depth_size = ((320, 240), (320, 200)) if args.quick else ((640, 480), (640, 400))
     duration = min(args.duration, 3.5) if args.quick else args.duration
     with tempfile.TemporaryDirectory(prefix="jostle-bench-") as tmp:
@@ -94,15 +99,17 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         folder.mkdir(parents=True, exist_ok=True)
         scores = _Scores()
         for n in counts:
-            path = folder / f"crossing{n}.mcap"
-            if not (args.keep is not None and path.is_file()):  # --keep: a folder's recordings are reused
-                _record(path, n, size, depth_size, duration, args.seed + n)
+            # --keep: a folder's recordings are reused, so the name says all that made one
+            path = folder / f"crossing{n}-seed{args.seed}-{args.fps:g}fps-{duration:g}s-{size[0]}x{size[1]}.mcap"
+            if not (args.keep is not None and path.is_file()):
+                _record(path, n, size, depth_size, duration, args.seed + n, args.fps)
             _score_recording(path, scores, pose=False)
             if n == 1:
                 _score_recording(path, scores, pose=True)
     figures = scores.figures()
     figures["recordings"] = ",".join(f"{n} people" for n in counts)
     figures["sizes"] = f"webcam {size[0]}x{size[1]}, depth {depth_size[0]}x{depth_size[1]}"
+    figures["frames_per_s"] = args.fps
     figures["targets_met"] = {k: _met(figures.get(k), *TARGETS[k]) for k in TARGETS if k != "webcam_pose_fps"}
     return figures
 
@@ -111,13 +118,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _record(path: Path, people: int, size: tuple[int, int], depth_size: tuple[int, int], duration: float,
-            seed: int) -> None:
+            seed: int, fps: float) -> None:
     from jostle.synth.config import DepthCameraConfig, PerformerConfig
     from jostle.synth.session import SynthSensors, record_performance
 
-    config = PerformerConfig(clips=("walk", "punch"), width=size[0], height=size[1], fps=15.0,
+    config = PerformerConfig(clips=("walk", "punch"), width=size[0], height=size[1], fps=fps,
                              duration_s=duration, seed=seed, empty_s=1.0, people=people, route="crossing")
-    oak = DepthCameraConfig(width=depth_size[0], height=depth_size[1], fps=15.0, color=False)
+    oak = DepthCameraConfig(width=depth_size[0], height=depth_size[1], fps=fps, color=False)
     record_performance(config, SynthSensors(webcam=True, oak=oak, truth=True), path)
 
 

@@ -26,7 +26,9 @@ FIGURES = ("webcam_fps", "depth_fps", "latency_ms_p99", "depth_extremity_error_m
 
 def test_quick_bench_scores_one_person_against_the_truth(tmp_path: Path) -> None:
     figures = main_json("interaction", ["--quick", "--people", "1", "--duration", "3.5", "--keep", str(tmp_path)])
-    assert (tmp_path / "crossing1.mcap").is_file()
+    kept = sorted(path.name for path in tmp_path.iterdir())
+    assert kept == ["crossing1-seed0-15fps-3.5s-320x240.mcap"]  # the name says what made it: reused only then
+    assert figures["frames_per_s"] == 15.0
     for name in FIGURES:
         value = figures[name]
         assert isinstance(value, float) and math.isfinite(value) and value >= 0, f"{name}: {value!r}"
@@ -40,3 +42,9 @@ def test_quick_bench_scores_one_person_against_the_truth(tmp_path: Path) -> None
 def test_bad_people_list_is_refused() -> None:
     with pytest.raises(ValueError, match="--people"):
         main_json("interaction", ["--quick", "--people", "7"])
+
+
+@pytest.mark.parametrize("fps", ["0", "500", "nan"])
+def test_bad_frame_rate_is_refused(fps: str) -> None:
+    with pytest.raises(ValueError, match=r"^--fps: expected a frame rate from 1 to 120, got "):
+        main_json("interaction", ["--quick", "--fps", fps])
