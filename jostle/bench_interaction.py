@@ -3,7 +3,7 @@
 (It lives in jostle/ because it records with :mod:`jostle.synth`; interaction/ may not import it.)
 
 Records crossings of 1 to 4 people (``jostle.synth``: webcam 640×480, OAK depth 640×400, ground
-truth) into a temporary folder, calibrates the depth camera from its own empty-stage frames
+truth; 15 fps unless ``--fps`` says otherwise) into a temporary folder, calibrates the depth camera from its own empty-stage frames
 (floor by RANSAC, the camera's foot point as the user would give it), runs the webcam observer
 (silhouette and flow; then with pose on the one-person recording) and the depth observer over
 every frame, fuses them, and scores against the truth:

@@ -9,8 +9,9 @@ stays stable at gains where the explicit law explodes at 1/240 s. Both are issue
 
 Limits: desired rotations are clamped into the joint's limits before they are tracked, and pybullet
 enforces them as constraints (hinges: their range; ball/universal: the spherical joint limit of the URDF the
-body is loaded from, measured as ``sim.articulated.joint_limit`` says); ``limit_excess`` measures by how
-much a pose is outside the limits (0 inside).
+body is loaded from, measured as ``sim.articulated.joint_limit`` says). Those constraints act only once a
+joint is past its limit, and a fast compound swing can carry it well past (``jostle bench ragdoll``'s
+``joint_limit_excess_deg``); ``limit_excess`` measures by how much a pose is outside the limits (0 inside).
 """
 
 from __future__ import annotations
