@@ -8,7 +8,9 @@ joints they hang from.
 Two velocity references are kept apart here, so that the bench can tell the tracker's own error from
 what its frame rate allows (:func:`sampled_truth_angles`, :func:`true_steps`): the true velocity at the
 frame's instant, and the true part's motion over the last frame interval (what any tracker that sees
-only the frames can know).
+only the frames can know). :class:`LinearCeiling` goes one step further: the best any tracker that
+combines the last few exact positions linearly could claim (an optimistic bound: no depth noise, and its
+weights fitted to the very velocities it is scored against).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import numpy as np
 
 SAME_PART_M = 0.10  # a contactor this near a true hand (foot) is that hand: its velocity is compared
 MOVING_M_S = 0.5  # velocities are compared for parts moving faster than this
+CEILING_TAPS = 4  # LinearCeiling: positions combined (3 to 6 measured within 3° of each other at 15-60 fps)
 _HAND_BEYOND_WRIST_M = 0.02
 _FOOT_ALONG = 0.4658
 _FOOT_BELOW_M = 0.01225
@@ -112,3 +115,61 @@ def visible_people(frame_truth: Any, camera: Any) -> int | None:
             return None
         seen += int(inside)
     return seen
+
+
+class LinearCeiling:
+    """The velocity direction error of the best *linear* tracker at the depth frame rate.
+
+    For each true hand and foot centre moving faster than ``MOVING_M_S``, the exact centres at the last
+    ``taps`` depth frames (this one first) are kept with its true velocity now. ``angles`` fits, by least
+    squares over every sample of the run at once, the one set of weights a such that
+    Σ aⱼ·(xₜ₋ⱼ − xₜ₋ⱼ₋₁) / Δt is nearest the true velocities (weights on the steps, not on the positions,
+    so that where the stage's origin lies cannot matter), and returns each sample's angle to its true
+    velocity. Every causal tracker
+    that differences positions (frame steps, alpha-beta, constant-acceleration fits, Kalman filters in
+    their steady state) is such a weighting: none does better on these parts at this rate, even before
+    any noise, unless it knows more than the positions (a body model). Samples whose frames are not evenly
+    spaced (a dropped frame) are left out."""
+
+    def __init__(self, taps: int = CEILING_TAPS) -> None:
+        if taps < 2:
+            raise ValueError(f"taps: expected >= 2, got {taps}")
+        self.taps = taps
+        self._window: list[Any] = []
+        self._x: list[np.ndarray] = []  # (taps - 1, 3) frame steps / Δt, newest first
+        self._v: list[np.ndarray] = []
+
+    def new_recording(self) -> None:
+        """The next frame starts another recording: no history is carried over."""
+        self._window = []
+
+    def add(self, frame_truth: Any, score: bool = True) -> None:
+        """The truth of the next depth frame (every frame, in order); ``score``: take its samples (False:
+        only remember it, e.g. while the observer is still learning the empty stage)."""
+        self._window = [*self._window[-(self.taps - 1):], frame_truth]
+        if not score or len(self._window) < self.taps:
+            return
+        times = np.array([f.t for f in self._window])
+        gaps = np.diff(times)
+        dt = float(gaps.mean())
+        if dt <= 0 or float(np.abs(gaps - dt).max()) > 0.1 * dt:
+            return
+        for part in ("hand", "foot"):
+            history = [{key: pos for key, pos, _ in part_centres(f, part)} for f in reversed(self._window)]
+            for key, _, true_v in part_centres(frame_truth, part):
+                if float(np.linalg.norm(true_v)) <= MOVING_M_S or any(key not in h for h in history):
+                    continue
+                positions = np.stack([h[key] for h in history])
+                self._x.append((positions[:-1] - positions[1:]) / dt)
+                self._v.append(np.asarray(true_v, dtype=float))
+
+    def angles(self) -> list[float]:
+        """Each sample's angle (degrees) under the best weights (none: fewer samples than taps)."""
+        if len(self._v) < self.taps:
+            return []
+        x = np.stack(self._x)  # (N, taps - 1, 3)
+        v = np.stack(self._v)  # (N, 3)
+        design = x.transpose(0, 2, 1).reshape(-1, self.taps - 1)  # each axis of each sample is one equation
+        weights, *_ = np.linalg.lstsq(design, v.reshape(-1), rcond=None)
+        claimed = (design @ weights).reshape(-1, 3)
+        return [a for a in (angle_deg(c, t) for c, t in zip(claimed, v, strict=True)) if a is not None]

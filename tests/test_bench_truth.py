@@ -8,10 +8,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from interaction.types import BodyObservation, Contactor
 from jostle import bench_interaction
-from jostle.bench_truth import body_part_centres, true_steps
+from jostle.bench_truth import LinearCeiling, body_part_centres, true_steps
 from jostle.synth.truth import PersonTruth, TruthFrame
 from sim.motion.mocap import HUMANOID
 
@@ -68,3 +69,42 @@ def test_withheld_velocities_are_counted_not_scored() -> None:
     assert scores.withheld == 4 and scores.angle == [] and scores.angle_vs_step == []
     figures = scores.figures()
     assert figures["velocity_direction_error_deg_p95_vs_frame_step"] is None and figures["velocity_withheld"] == 4
+
+
+def test_the_best_linear_weighting_follows_a_steady_turn_exactly_where_a_frame_step_is_off_by_half_of_it() -> None:
+    """On a body turning steadily, three or more past positions weighted right give the tangent exactly
+    (the ceiling is 0), while two (the frame step) lag half the turn of a frame; a dropped frame and a new
+    recording break the history, and samples not scored (learning) are not counted."""
+    frames = [_turning_body(1.0 + i * DT) for i in range(12)]
+    ceiling = LinearCeiling(taps=4)
+    for f in frames:
+        ceiling.add(f)
+    four = ceiling.angles()
+    assert len(four) == (12 - 3) * 4 and max(four) < 0.1  # (the chord: 0.95°)
+    chord = LinearCeiling(taps=2)
+    for f in frames:
+        chord.add(f)
+    assert np.allclose(chord.angles(), math.degrees(OMEGA * DT / 2), atol=0.2)
+
+    gappy = LinearCeiling(taps=4)
+    for i, f in enumerate(frames):
+        if i != 6:  # frame 6 dropped: the windows that span the gap are uneven and left out
+            gappy.add(f)
+    assert len(gappy.angles()) == 4 * (12 - 1 - 3 - 3)
+    split = LinearCeiling(taps=4)
+    for i, f in enumerate(frames):
+        if i == 6:
+            split.new_recording()
+        split.add(f, score=i % 2 == 0)
+    assert len(split.angles()) == 4 * 2  # frames 4 and 10 are scored with three before them in their recording
+    with pytest.raises(ValueError, match="taps: expected >= 2, got 1"):
+        LinearCeiling(taps=1)
+
+
+def test_the_bench_reports_the_linear_ceiling() -> None:
+    scores = bench_interaction._Scores()
+    for i in range(6):
+        scores.ceiling.add(_turning_body(1.0 + i * DT))
+    figures = scores.figures()
+    assert figures["velocity_direction_error_deg_p95_best_linear"] == 0.0
+    assert bench_interaction._Scores().figures()["velocity_direction_error_deg_p95_best_linear"] is None
