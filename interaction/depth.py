@@ -172,6 +172,7 @@ class DepthObserver:
         self._tracks: dict[tuple[int, str], _Track] = {}
         self._points: np.ndarray = np.zeros((0, 3))
         self._fine = FineDepth(calibration)
+        self._feet_seen: list[np.ndarray] = []  # the last person's feet as measured on their points seen
         self._hidden = HiddenPeople(config.hidden_memory_s, config.hidden_near_m,
                                     (float(calibration.translation[0]), float(calibration.translation[1])))
         self._limbs = LimbTracker(gate_m=cfg.limb_gate_m, steady_m=cfg.limb_steady_m,
@@ -266,7 +267,9 @@ class DepthObserver:
                 vel = self._velocity(key, pos, frame.t, born)
                 contactors.append(Contactor(pid, part, _vec(pos), _vec(vel), radius))
             for part, radius in _LIMBS.items():
-                for _, pos, vel in self._limbs.update(pid, part, [f[2] for f in found if f[0] == part], frame.t, born):
+                moving = self._feet_seen if part == "foot" else None  # velocities of the feet as measured
+                for _, pos, vel in self._limbs.update(pid, part, [f[2] for f in found if f[0] == part], frame.t, born,
+                                                      moving):
                     contactors.append(Contactor(pid, part, _vec(pos), _vec(vel), radius))
         for key in [k for k in self._tracks if k not in seen]:
             del self._tracks[key]
@@ -334,7 +337,8 @@ class DepthObserver:
                 out.append(("body", f"body{i}", np.array([centre[i, 0], centre[i, 1], mids[i]]), float(radius[i])))
         torso_r = float(np.sqrt(spread[2] / max(count[2], 1)))  # the chest band's RMS radius
         cfg = self._cfg
-        feet = find_feet(q, self._fine)
+        self._feet_seen = []
+        feet = find_feet(q, self._fine, self._feet_seen)
         hands = find_hands(q, top, axis, torso_r, feet, self._fine, band_low=cfg.hand_band_low,
                            min_reach=cfg.min_hand_reach_m, min_arm_reach=cfg.min_arm_reach)
         out.extend(("hand", "hand", h, 0.07) for h in hands)

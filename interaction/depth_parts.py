@@ -4,9 +4,9 @@ The depth observer finds people on a sampled image (every 4th pixel at 640 px ac
 there is a couple of samples, each with the stereo error of its distance (≈ 6 cm along the ray at
 5 m for an OAK), too few to place it within a few centimetres. So an extremity is *found* on the
 sampled points and *measured* on every pixel of the full image near it (:class:`FineDepth`): the
-points of the tip are averaged, and the average, which lies on the surface the camera sees, is
-moved back along the viewing ray to the middle of the part (two thirds of its radius for a
-rounded part: the mean depth of a sphere's visible half).
+points of the tip (on the depth's 3×3 median, a third of its noise) are averaged, and the average,
+which lies on the surface the camera sees, is moved back along the viewing ray to the middle of the
+part (two thirds of its radius for a rounded part: the mean depth of a sphere's visible half).
 
 Hands (:func:`find_hands`): of the person's points above the hips, well out from the torso, not
 near a leg (the line from a foot up to the hips) and with nothing right under them (a knee or a
@@ -22,10 +22,10 @@ hidden hand is not guessed. The second hand is looked for off the first one's ar
 Feet (:func:`find_feet`): the points 5–20 cm over the floor under the shins, split in two; each is
 measured on the full image's 3×3-median depth (the floor's noise stays under 4.5 cm there) in a
 column over it, from the lowest points seen up by ``FOOT_TOP_M``, so a raised foot is measured where
-it is. A foot whose lowest points seen are at that 4.5 cm cut stands on the floor: the middle of its
-shoe is put at ``SHOE_MIDDLE_M`` (its lower part cannot be told from the floor, so the points seen
-would put it too high). The column is first centred on the coarse points' middle, which can be anywhere
-on the shoe, then again on the middle of the shoe's points seen in it (a shoe is about as long as the
+it is. The height of a shoe standing on the floor (its lowest points seen at that 4.5 cm cut,
+``FLOOR_CUT_M``) or hanging toe-down is had from a generic shoe's shape (:mod:`interaction.shoe_fit`):
+the points seen would put the first too high, the second at its toe. The column is first centred on
+the coarse points' middle, which can be anywhere on the shoe, then again on the middle of the shoe's points seen in it (a shoe is about as long as the
 column is wide: off its middle, the column cuts off a heel or a toe). A column whose lowest points seen are higher than ``MAX_FOOT_BOTTOM_M`` shows a
 shin whose shoe is hidden (behind the other leg, someone nearer): no foot is guessed there. Nor where
 the shoe is half hidden: seen on less than ``MIN_SHOE_SEEN_M2`` (its pixels times the area a pixel
@@ -43,26 +43,21 @@ first frame it is found, where a hand waits for a second (feet p95 0.083 with or
 frame on seed 0, 0.084 → 0.086 on seed 100).
 
 Measured on the virtual performer at 640×400 (``jostle bench interaction``, seeds 0 and 100): hands
-p50 ≈ 1.5 cm, p95 6.0–6.3 cm (12.6 and 9.9 cm before hidden arms were left out); feet p50 ≈ 3.0–3.1 cm, p95
-≈ 7.6–7.7 cm (8.4 cm before half-hidden shoes were left out, 9.3–9.4 cm with one column and no hidden-shoe rule): a shoe flat on the floor is mostly hidden in the floor's noise (its middle is then put ~5 cm
-too high when the shin's points outnumber the shoe's), and a swinging foot pitched toes-down is
-measured at its toe, ≈ 3 cm low and toward the toe. What the average of a shoe's points can reach at all
-was measured by cutting them out with the true shoe box (grown by 4 cm for the noise): feet p95 ≈ 7 cm,
-14 % over 5 cm (a shoe seen on fewer than ~60 pixels, half hidden, is off by 5 cm or more about half the
-time); the same average of the points this module selects is p95 ≈ 8.8 cm, 28 % over 5 cm (≈ 10 cm,
-33 % with one column), all counted on every foot measured, before the limb tracks confirm them. Tried and
-not kept (no better on p95): the shoe's points cut out of the shin's axis (a line fitted to the points
-10–30 cm over the lowest: at the ankle it is off the true ankle by p50 3 cm), the toe's tip less half a
-shoe, a 5×5 median and a lower floor cut, and averaging a foot at rest over frames (its error is bias,
-not noise). Nor (p95 of all hands and feet, seed 0, 0.082 m before): holding a half-hidden shoe
-(< 0.011 m² seen) where its track last saw it whole (0.082); the floor's height for a foot whose track
-moved < 2–5 cm in 1–3 frames (0.082–0.083), or its (x, y) pooled over those frames (0.082–0.083); the
-median or a trimmed mean of the shoe's points, a 10–16 cm second column, a 2 or 6 cm inset across
-(all no better on the 918 feet measured on seed 0, p95 0.087–0.097 against 0.088). With the true foot's direction, the
-true centre along it would give p95 0.076; the true height alone 0.065: the error is both. A raised
-foot (lowest points 8–12 cm up) is put ≈ 3 cm low on average (pitched, its lowest points are a toe or
-a heel), but no height from its lowest points or its points' mean and 90th percentile (least squares
-on seed 0, tried on 100) nor dropping the inset's vertical part there made p95 any better.
+p50 ≈ 1.2 cm, p95 5.5 and 4.7 cm (6.0–6.3 cm on the raw depth instead of its 3×3 median, 12.6 and 9.9 cm
+before hidden arms were left out); feet p50 ≈ 2.5 cm, p95 6.8 and 7.2 cm (7.6–7.7 cm before a shoe's shape
+set the height of a shoe standing or hanging toe-down, 8.4 cm before half-hidden shoes were left out,
+9.3–9.4 cm with one column and no hidden-shoe rule). The feet's tracks follow them as measured on their
+points seen (held 4 cm up while they stand), not at the heights a shoe's shape gives, which jump as a
+foot goes from standing to hanging (followed there, 100 feet's velocities were claimed, not 172, p95 35°).
+Claimed directions, p95 (p90) over both seeds: hands 31° (27°) → 35° (28°) with the median, feet 23°
+(17°) → 28° (17°) (held at 3 cm as before: 23°, the same claims). The average of
+a shoe's points cut out with the true shoe box (grown by 4 cm for the noise) reached feet p95 ≈ 7 cm
+(this module's points: 8.8 cm, before the shoe's shape). Tried and not kept (no better on p95, most on
+seed 0, all hands and feet 0.082 m then): the shoe's points cut out of the shin's axis (at the ankle it
+is off by p50 3 cm), the toe's tip less half a shoe, a 5×5 median, a lower floor cut, a foot at rest
+averaged over frames (its error is bias, not noise) or held where its track last saw it whole, the
+median or a trimmed mean of the shoe's points, a 10–16 cm second column, a 2 or 6 cm inset across, and
+a raised foot's height fitted (least squares) to its lowest points, mean and 90th percentile.
 
 Cost: the rays of every pixel are made once per image size (one outer sum, see :class:`FineDepth`);
 a part costs a crop of the image around it (no per-frame work over the whole image).
@@ -76,6 +71,7 @@ import cv2
 import numpy as np
 
 from interaction.depth_calibration import DepthCalibration
+from interaction.shoe_fit import SHOE_HEIGHT_M, shoe_middle_height
 from sensors.base import DepthImage
 
 __all__ = ["FineDepth", "find_feet", "find_hands"]
@@ -86,8 +82,8 @@ HAND_RADIUS_M = 0.05  # a hand, as a sphere (per 1.6 m of body height)
 MAX_ARM_REACH = 0.55  # no hand is farther than this from the shoulders (a fraction of the height)
 FOOT_BAND_M = 0.2  # feet are looked for this low (the shins above them)
 FOOT_TOP_M = 0.1  # a foot is measured on its points this far above its lowest (the shoe, the ankle)
-FOOT_ON_FLOOR_M = 0.06  # a foot whose lowest points seen are this low stands on the floor …
-SHOE_MIDDLE_M = 0.03  # … with the middle of its shoe this high
+FLOOR_CUT_M = 0.045  # feet are measured on points this high or higher (the floor's noise stays lower)
+FOOT_ON_FLOOR_M = 0.06  # a foot whose lowest points seen are this low is followed (its velocity) on the floor
 FOOT_HALF_HEIGHT_M = 0.04  # a shoe: its visible faces lie this far (on average) from its middle
 FOOT_RECENTRE_M = 0.02  # the column is centred again on the shoe seen when that is this far off (less: kept)
 MAX_FOOT_BOTTOM_M = 0.15  # a foot whose lowest points seen are higher is a shin whose shoe is hidden: none
@@ -117,6 +113,11 @@ class FineDepth:
         # is one outer sum (≈ 1 ms at 640×400, on the first frame of a size)
         self._rays = np.zeros((3, 0, 0), np.float32)
         self._image: DepthImage | None = None
+
+    @property
+    def camera(self) -> np.ndarray:
+        """The camera's position (stage metres)."""
+        return self._centre
 
     def set_frame(self, p: DepthImage) -> None:
         h, w = p.depth_mm.shape
@@ -305,7 +306,7 @@ def _distance_to_segment(pts: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
 def _hand_middle(tip: np.ndarray, shoulders: np.ndarray, fine: FineDepth, scale: float) -> np.ndarray | None:
     """The hand at a coarse tip: of the full-resolution points near it, those within a hand's size of
     the farthest one out from the shoulders, averaged and moved back into the hand."""
-    pts = fine.points_near(tip, 0.14 * scale, 0.05)
+    pts = fine.points_near(tip, 0.14 * scale, 0.05, smooth=True)  # the 3×3 median: a third of the noise
     if len(pts) < 4:
         return None
     out = pts - shoulders
@@ -319,11 +320,11 @@ def _hand_middle(tip: np.ndarray, shoulders: np.ndarray, fine: FineDepth, scale:
     return fine.inset(hand.sum(axis=0) / len(hand), 2.0 / 3.0 * HAND_RADIUS_M * scale)
 
 
-def find_feet(q: np.ndarray, fine: FineDepth) -> list[np.ndarray]:
+def find_feet(q: np.ndarray, fine: FineDepth, measured: list[np.ndarray] | None = None) -> list[np.ndarray]:
     """The feet of one person (points ``q``): its points low over the floor (5–20 cm) that are under
     or beside its shins (20–45 cm; stray low points under a hand or beside the person are no foot),
     split in two (one when close together), each measured on the full image (see the module's
-    notes)."""
+    notes). ``measured`` gets each foot as measured on its points seen, before a shoe's shape sets its height."""
     z = q[:, 2]
     low, shins = q[(z > 0.05) & (z < FOOT_BAND_M)], q[(z > FOOT_BAND_M) & (z < FOOT_BAND_M + 0.25), :2]
     if len(low) < 4 or not len(shins):
@@ -337,7 +338,7 @@ def find_feet(q: np.ndarray, fine: FineDepth) -> list[np.ndarray]:
     out = []
     for members in two_clusters(low):
         centre = members.sum(axis=0) / len(members)
-        column = fine.column_near(centre, 0.12, 0.045, 0.3, smooth=True)
+        column = fine.column_near(centre, 0.12, FLOOR_CUT_M, 0.3, smooth=True)
         if len(column) < 4:
             continue
         bottom = _lowest(column)  # a raised foot is measured where it is
@@ -348,9 +349,9 @@ def find_feet(q: np.ndarray, fine: FineDepth) -> list[np.ndarray]:
         # column off its middle cuts off a heel or a toe (a shoe is about as long as the column is wide)
         middle = shoe.sum(axis=0) / len(shoe)
         if math.hypot(float(middle[0] - centre[0]), float(middle[1] - centre[1])) > FOOT_RECENTRE_M:
-            again = fine.column_near(middle, 0.12, 0.045, 0.3, smooth=True)
+            again = fine.column_near(middle, 0.12, FLOOR_CUT_M, 0.3, smooth=True)
             if len(again) >= 4:
-                bottom = _lowest(again)
+                column, bottom = again, _lowest(again)
                 shoe = again[again[:, 2] < bottom + FOOT_TOP_M]
         middle = shoe.sum(axis=0) / len(shoe)
         seen = len(shoe) * fine.pixel_area(middle) / size  # as if the person were 1.6 m tall
@@ -358,8 +359,11 @@ def find_feet(q: np.ndarray, fine: FineDepth) -> list[np.ndarray]:
                 np.array([middle[0], middle[1], 0.1]), HIDING_REACH_M, HIDING_MARGIN_M, 0.05) > HIDING_SHARE):
             continue  # a shoe half hidden (behind the other leg, someone nearer) is not measured
         foot = fine.inset(middle, FOOT_HALF_HEIGHT_M)
-        if bottom < FOOT_ON_FLOOR_M:  # its sole is on the floor, under what can be told from it
-            foot[2] = SHOE_MIDDLE_M
+        height = shoe_middle_height(column, FLOOR_CUT_M, fine.camera)  # standing, or hanging toe-down: a shoe's shape
+        if measured is not None:  # followed on the floor while it stands there: its height's noise is no velocity
+            measured.append(np.array([foot[0], foot[1], 0.5 * SHOE_HEIGHT_M]) if bottom < FOOT_ON_FLOOR_M else foot.copy())
+        if height is not None:
+            foot[2] = height
         out.append(foot)
     return out
 

@@ -57,10 +57,14 @@ class LimbTracker:
     def clear(self) -> None:
         self._tracks.clear()
 
-    def update(self, person: int, part: str, found: list[np.ndarray], t: float, born: bool
-               ) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    def update(self, person: int, part: str, found: list[np.ndarray], t: float, born: bool,
+               moving: list[np.ndarray] | None = None) -> list[tuple[int, np.ndarray, np.ndarray]]:
         """Give one person's detections of one part (at most two) to its tracks; returns the reported
-        ones as (slot, position, velocity)."""
+        ones as (slot, position, velocity). ``moving``: the points the tracks follow, one per detection
+        (default ``found``), when a detection's position is had from a model that changes from frame to
+        frame (a foot's height from a shoe's shape) and the points it was measured at move smoothly: the
+        gate, the steadiness and the velocity are taken on them, the position reported is ``found``'s."""
+        reported, found = found, (found if moving is None else moving)
         slots = [self._tracks.get((person, part, s)) for s in (0, 1)]
         if born:
             slots = [None, None]
@@ -90,13 +94,13 @@ class LimbTracker:
             order.append(maybe)
         out: list[tuple[int, np.ndarray, np.ndarray]] = []
         confirm = self._confirm_by_part.get(part, self._confirm)
-        for pos, slot in zip(found, order, strict=True):
+        for pos, shown, slot in zip(found, reported, order, strict=True):
             track = self._follow(slots[slot], pos, t)
             self._tracks[(person, part, slot)] = track
             if track.hits >= confirm:
                 steady = track.steady >= self._steady_frames and self._consistent(track)
                 velocity = track.velocity if steady and track.velocity is not None else np.zeros(3)
-                out.append((slot, pos.copy(), velocity.copy()))
+                out.append((slot, shown.copy(), velocity.copy()))
         for slot in (0, 1):
             if slot not in taken:
                 key = (person, part, slot)

@@ -10,8 +10,9 @@ import pytest
 
 from interaction import depth_parts
 from interaction.depth_calibration import DepthCalibration
-from interaction.depth_parts import FineDepth, find_feet
+from interaction.depth_parts import FLOOR_CUT_M, FineDepth, find_feet
 from interaction.limb_tracks import LimbTracker
+from interaction.shoe_fit import SHOE_HEIGHT_M, shoe_middle_height
 from jostle.bench_truth import sampled_truth_angles
 from jostle.synth.truth import PersonTruth, TruthFrame
 from sensors.base import DepthImage
@@ -136,3 +137,66 @@ def test_a_foot_is_reported_from_its_first_frame_a_hand_from_its_second() -> Non
     assert [slot for slot, _, _ in tracks.update(0, "foot", [foot], 0.0, born=True)] == [0]
     assert tracks.update(0, "hand", [hand], 0.0, born=True) == []
     assert len(tracks.update(0, "hand", [hand], 1 / 15, born=False)) == 1
+
+
+
+def _leg(bottom: float) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    return (-0.05, -0.05, bottom), (0.05, 0.05, 1.6)
+
+
+# 26 × 10 × 8 cm shoes, the leg over the heel's half: flat across the view (side-on) or along it (toe-on),
+# and hanging toe-down (26 cm tall, its toe 8 cm up) whichever way it faces
+SIDE_ON_FLAT = ((-0.2, -0.05, 0.0), (0.06, 0.05, 0.08))
+TOE_ON_RAISED = ((-0.05, -0.2, 0.12), (0.05, 0.06, 0.2))
+HANGING = [((-0.05, -0.04, 0.08), (0.05, 0.04, 0.34)), ((-0.04, -0.05, 0.08), (0.04, 0.05, 0.34))]
+
+
+def test_a_shoe_flat_on_the_floor_has_its_middle_half_a_shoe_up(cal: DepthCalibration) -> None:
+    fine = FineDepth(cal)
+    fine.set_frame(_render(cal, [_leg(0.08), SIDE_ON_FLAT]))  # seen: its top at 8 cm, its side down to the cut
+    feet = find_feet(_leg_points(fine), fine)
+    assert feet and all(abs(float(f[2]) - 0.5 * SHOE_HEIGHT_M) < 1e-9 for f in feet)
+
+
+@pytest.mark.parametrize("shoe", HANGING)
+def test_a_shoe_hanging_toe_down_is_put_up_along_it_not_at_its_toe(cal: DepthCalibration, shoe: tuple[
+        tuple[float, float, float], tuple[float, float, float]], monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(depth_parts, "MIN_SHOE_SEEN_M2", 0.0)  # seen end-on, the box shows less than a shoe's area
+    fine = FineDepth(cal)
+    fine.set_frame(_render(cal, [_leg(0.34), shoe]))
+    q = _leg_points(fine)
+    feet = find_feet(q, fine)
+    middle = 0.21  # the shoe's middle; a generic shoe pitched 45° (the least a hanging foot is) puts it 2–3 cm low
+    assert len(feet) == 1 and abs(float(feet[0][2]) - middle) < 0.03
+    monkeypatch.setattr(depth_parts, "shoe_middle_height", lambda column, floor_cut, camera: None)
+    seen = find_feet(q, fine)  # the points seen alone: the toe's end of the shoe
+    assert len(seen) == 1 and middle - float(seen[0][2]) > abs(float(feet[0][2]) - middle) + 0.03
+
+
+def test_a_flat_shoe_in_the_air_seen_toe_on_is_measured_where_its_points_are(cal: DepthCalibration) -> None:
+    # as narrow across the view as a hanging shoe, but its top is seen behind its toe
+    fine = FineDepth(cal)
+    fine.set_frame(_render(cal, [_leg(0.2), TOE_ON_RAISED]))
+    feet = find_feet(_leg_points(fine), fine)
+    assert len(feet) == 1 and abs(float(feet[0][2]) - 0.16) < 0.01
+    column = fine.column_near(np.array([0.0, -0.07]), 0.12, FLOOR_CUT_M, 0.3, smooth=True)
+    assert shoe_middle_height(column, FLOOR_CUT_M, fine.camera) is None
+
+
+def test_a_foot_is_followed_on_its_points_seen_and_reported_at_its_shoe_s_middle() -> None:
+    # a foot moving steadily along x whose height from the shoe's shape jumps (standing, hanging, …):
+    # its velocity is claimed from the points seen, its position is the shoe's middle
+    tracks = LimbTracker(gate_m=0.3, steady_m=0.1, confirm_frames=1, steady_frames=3, memory_frames=3,
+                         consistent_deg=20.0, min_speed=0.5)
+    out: list[tuple[int, np.ndarray, np.ndarray]] = []
+    for i in range(5):
+        seen = np.array([0.1 * i, 0.0, 0.1])
+        middle = np.array([0.1 * i, 0.0, (0.04, 0.19)[i % 2]])
+        out = tracks.update(0, "foot", [middle], i / 15, born=i == 0, moving=[seen])
+    assert np.allclose(out[0][1], [0.4, 0.0, 0.04])
+    assert np.allclose(out[0][2], [1.5, 0.0, 0.0])
+    jumpy = LimbTracker(gate_m=0.3, steady_m=0.1, confirm_frames=1, steady_frames=3, memory_frames=3,
+                        consistent_deg=20.0, min_speed=0.5)
+    for i in range(5):
+        out = jumpy.update(0, "foot", [np.array([0.1 * i, 0.0, (0.04, 0.19)[i % 2]])], i / 15, born=i == 0)
+    assert np.allclose(out[0][2], 0.0)  # followed at the jumping heights, no velocity could be claimed
