@@ -12,6 +12,17 @@ enforces them as constraints (hinges: their range; ball/universal: the spherical
 body is loaded from, measured as ``sim.articulated.joint_limit`` says). Those constraints act only once a
 joint is past its limit, and a fast compound swing can carry it well past (``jostle bench ragdoll``'s
 ``joint_limit_excess_deg``); ``limit_excess`` measures by how much a pose is outside the limits (0 inside).
+Measured on one hip held at rest (no gravity, pelvis fixed) under a steady 150 N·m: the spherical limit
+alone lets it go 20–60° past, its rows pushing along the child frame's axes while the angle grows along
+the others. Harder stops were tried on the bench's push sweep (4 phases each way; default: worst 22.4°,
+pushes survived ≥ 280 N forward, ≥ 300 N sideways at every phase): a joint past its limit driven by
+pybullet's spherical motor toward zero outward velocity (every physics step, up to 200–1000 N·m) cut the
+worst excess to 11.9–15.1°, but a sideways push of 100 N then felled it at one phase (forward: 180–220 N);
+a stiff stable PD toward the nearest pose inside (30× the joint's gains; 100× diverges) 16.9° and
+again 100 N sideways at one phase; the engine's limits 8° inside the skeleton's, 16.2° with the pushes
+kept. The recovering steps of a near-fall swing a hip past its limits, and stops there take that step
+away. (Splitting one step's ``STABLE_PD_CONTROL`` over two calls, each for some of the joints, is no way
+to mix modes: the body falls at once, as if only the last call acted; measured.)
 """
 
 from __future__ import annotations
