@@ -43,7 +43,8 @@ first frame it is found, where a hand waits for a second (feet p95 0.083 with or
 frame on seed 0, 0.084 → 0.086 on seed 100).
 
 Measured on the virtual performer at 640×400 (``jostle bench interaction``, seeds 0 and 100): hands
-p50 ≈ 1.2 cm, p95 5.5 and 4.7 cm (6.0–6.3 cm on the raw depth instead of its 3×3 median, 12.6 and 9.9 cm
+p50 ≈ 1.2 cm, p95 5.4 and 4.4 cm (5.5 and 4.7 chosen in 3D, not across the view; 6.0–6.3 cm on the raw
+depth instead of its 3×3 median, 12.6 and 9.9 cm
 before hidden arms were left out); feet p50 ≈ 2.5 cm, p95 6.8 and 7.2 cm (7.6–7.7 cm before a shoe's shape
 set the height of a shoe standing or hanging toe-down, 8.4 cm before half-hidden shoes were left out,
 9.3–9.4 cm with one column and no hidden-shoe rule). The feet's tracks follow them as measured on their
@@ -71,7 +72,8 @@ import cv2
 import numpy as np
 
 from interaction.depth_calibration import DepthCalibration
-from interaction.shoe_fit import SHOE_HEIGHT_M, shoe_middle_height
+from interaction.hand_fit import hand_points
+from interaction.shoe_fit import SHOE_HEIGHT_M, one_per_shoe, shoe_middle_height
 from sensors.base import DepthImage
 
 __all__ = ["FineDepth", "find_feet", "find_hands"]
@@ -305,16 +307,12 @@ def _distance_to_segment(pts: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
 
 def _hand_middle(tip: np.ndarray, shoulders: np.ndarray, fine: FineDepth, scale: float) -> np.ndarray | None:
     """The hand at a coarse tip: of the full-resolution points near it, those within a hand's size of
-    the farthest one out from the shoulders, averaged and moved back into the hand."""
+    the farthest one out from the shoulders (across the view: :mod:`interaction.hand_fit`), averaged
+    and moved back into the hand."""
     pts = fine.points_near(tip, 0.14 * scale, 0.05, smooth=True)  # the 3×3 median: a third of the noise
     if len(pts) < 4:
         return None
-    out = pts - shoulders
-    direction = (tip - shoulders) / max(float(np.linalg.norm(tip - shoulders)), 1e-9)
-    along = out @ direction
-    k = (len(along) * 19) // 20
-    far = float(np.partition(along, k)[k])  # the 95th percentile: the tip, not a stray point
-    hand = pts[along > far - 2 * HAND_RADIUS_M * scale]
+    hand = hand_points(pts, tip, shoulders, fine.camera, 2 * HAND_RADIUS_M * scale)
     if len(hand) < 3:
         return None
     return fine.inset(hand.sum(axis=0) / len(hand), 2.0 / 3.0 * HAND_RADIUS_M * scale)
@@ -365,7 +363,7 @@ def find_feet(q: np.ndarray, fine: FineDepth, measured: list[np.ndarray] | None 
         if height is not None:
             foot[2] = height
         out.append(foot)
-    return out
+    return one_per_shoe(out, measured)  # a shoe seen alone can be split in two (heel, toe)
 
 
 def _lowest(column: np.ndarray) -> float:

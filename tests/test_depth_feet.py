@@ -12,7 +12,7 @@ from interaction import depth_parts
 from interaction.depth_calibration import DepthCalibration
 from interaction.depth_parts import FLOOR_CUT_M, FineDepth, find_feet
 from interaction.limb_tracks import LimbTracker
-from interaction.shoe_fit import SHOE_HEIGHT_M, shoe_middle_height
+from interaction.shoe_fit import HANGING_FROM_M, SHOE_HEIGHT_M, lies_flat, shoe_middle_height
 from jostle.bench_truth import sampled_truth_angles
 from jostle.synth.truth import PersonTruth, TruthFrame
 from sensors.base import DepthImage
@@ -171,6 +171,45 @@ def test_a_shoe_hanging_toe_down_is_put_up_along_it_not_at_its_toe(cal: DepthCal
     monkeypatch.setattr(depth_parts, "shoe_middle_height", lambda column, floor_cut, camera: None)
     seen = find_feet(q, fine)  # the points seen alone: the toe's end of the shoe
     assert len(seen) == 1 and middle - float(seen[0][2]) > abs(float(feet[0][2]) - middle) + 0.03
+
+
+def test_a_shoe_seen_alone_is_one_foot_at_its_middle_not_its_heel_and_its_toe(cal: DepthCalibration,
+                                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    # a shoe side-on, 26 cm long, its other foot not seen: its low points split in two, heel and toe
+    fine = FineDepth(cal)
+    fine.set_frame(_render(cal, [_leg(0.08), SIDE_ON_FLAT]))
+    feet = find_feet(_leg_points(fine), fine)
+    assert len(feet) == 1 and abs(float(feet[0][0]) + 0.07) < 0.02 and abs(float(feet[0][1])) < 0.02
+    monkeypatch.setattr(depth_parts, "one_per_shoe", lambda feet, measured=None: feet)
+    assert len(find_feet(_leg_points(fine), fine)) == 2  # without the rule: two feet on the one shoe
+
+
+def _lowest(column: np.ndarray) -> float:
+    k = len(column) * 5 // 100
+    return float(np.partition(column[:, 2], k)[k])
+
+
+def test_a_flat_shoe_seen_on_its_top_alone_stands_a_hanging_one_does_not(cal: DepthCalibration) -> None:
+    # a flat shoe whose sides are lost in the floor's noise shows its top a little over the cut, ahead of its
+    # leg; a shoe hanging toe-down a little over the floor shows its toe at that height, under its leg
+    fine = FineDepth(cal)
+    fine.set_frame(_render(cal, [_leg(0.08), SIDE_ON_FLAT]))
+    column = fine.column_near(np.array([-0.07, 0.0]), 0.12, FLOOR_CUT_M, 0.3, smooth=True)
+    top = column[column[:, 2] > 0.06]  # its sides not seen
+    assert FLOOR_CUT_M + 0.01 < _lowest(top) < FLOOR_CUT_M + 0.025
+    assert lies_flat(top, _lowest(top)) and shoe_middle_height(top, FLOOR_CUT_M, fine.camera) == 0.5 * SHOE_HEIGHT_M
+    lowest = []
+    for low, high in ((-0.05, -0.04), (0.05, 0.04)), ((-0.04, -0.05), (0.04, 0.05)):  # both ways round
+        fine.set_frame(_render(cal, [_leg(0.29), ((low[0], low[1], 0.03), (high[0], high[1], 0.29))]))
+        column = fine.column_near(np.zeros(2), 0.12, FLOOR_CUT_M, 0.3, smooth=True)
+        lowest.append(_lowest(column) - FLOOR_CUT_M)
+        assert 0.01 < lowest[-1] < 0.025 and not lies_flat(column, _lowest(column))
+        height = shoe_middle_height(column, FLOOR_CUT_M, fine.camera)
+        if lowest[-1] < HANGING_FROM_M:
+            assert height is None  # measured where its points are
+        else:
+            assert height is not None and abs(height - 0.16) < 0.01  # put up along it (its middle 16 cm up)
+    assert min(lowest) < HANGING_FROM_M <= max(lowest)  # one of each
 
 
 def test_a_flat_shoe_in_the_air_seen_toe_on_is_measured_where_its_points_are(cal: DepthCalibration) -> None:
