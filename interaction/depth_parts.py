@@ -43,7 +43,7 @@ first frame it is found, where a hand waits for a second (feet p95 0.083 with or
 frame on seed 0, 0.084 → 0.086 on seed 100).
 
 Measured on the virtual performer at 640×400 (``jostle bench interaction``, seeds 0 and 100): hands
-p50 ≈ 1.2 cm, p95 5.4 and 4.4 cm (5.5 and 4.7 chosen in 3D, not across the view; 6.0–6.3 cm on the raw
+p50 ≈ 1.2 cm, p95 3.7 and 3.3 cm (5.4 and 4.4 looked for once; 5.5 and 4.7 chosen in 3D; 6.0–6.3 cm on the raw
 depth instead of its 3×3 median, 12.6 and 9.9 cm
 before hidden arms were left out); feet p50 ≈ 2.5 cm, p95 6.8 and 7.2 cm (7.6–7.7 cm before a shoe's shape
 set the height of a shoe standing or hanging toe-down, 8.4 cm before half-hidden shoes were left out,
@@ -72,7 +72,7 @@ import cv2
 import numpy as np
 
 from interaction.depth_calibration import DepthCalibration
-from interaction.hand_fit import hand_points
+from interaction.hand_fit import follow_hand
 from interaction.shoe_fit import SHOE_HEIGHT_M, one_per_shoe, shoe_middle_height
 from sensors.base import DepthImage
 
@@ -81,6 +81,7 @@ __all__ = ["FineDepth", "find_feet", "find_hands"]
 HIDDEN_REACH = 0.15  # beyond a hand's tip, this far on along the arm (per 1.6 m of height) …
 HIDDEN_MARGIN_M = 0.1  # … nothing may be seen this much nearer than the arm's line (else it goes on behind)
 HAND_RADIUS_M = 0.05  # a hand, as a sphere (per 1.6 m of body height)
+LEG_CLEAR_M = 0.16  # no hand is this near a leg's line, foot to hips (per 1.6 m of body height)
 MAX_ARM_REACH = 0.55  # no hand is farther than this from the shoulders (a fraction of the height)
 FOOT_BAND_M = 0.2  # feet are looked for this low (the shins above them)
 FOOT_TOP_M = 0.1  # a foot is measured on its points this far above its lowest (the shoe, the ankle)
@@ -239,7 +240,7 @@ def find_hands(q: np.ndarray, top: float, axis: np.ndarray, torso_r: float, feet
     arm = arm[np.add.reduce(np.square(arm[:, :2] - axis), axis=1) >= out * out]  # out of the torso
     hips = np.array([axis[0], axis[1], 0.5 * top])
     for foot in feet:
-        arm = arm[_distance_to_segment(arm, foot, hips) > 0.16 * scale]
+        arm = arm[_distance_to_segment(arm, foot, hips) > LEG_CLEAR_M * scale]
     if not len(arm):
         return []
     shoulders = _shoulders(q, top, axis, scale)
@@ -255,7 +256,7 @@ def find_hands(q: np.ndarray, top: float, axis: np.ndarray, torso_r: float, feet
         if along[k] < min_arm_reach * top:
             break
         tip, shoulder = arm[k], shoulders[nearer[k]]
-        hand = _hand_middle(tip, shoulder, fine, scale)
+        hand = _hand_middle(tip, shoulder, fine, scale, [(foot, hips) for foot in feet])
         reach = tip - shoulder
         if hand is not None and fine.hidden_beyond(tip, reach / max(float(np.linalg.norm(reach)), 1e-9),
                                                     HIDDEN_REACH * scale, HIDDEN_MARGIN_M):
@@ -305,17 +306,16 @@ def _distance_to_segment(pts: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
     return np.asarray(np.sqrt(np.add.reduce(np.square(pts - (a + s[:, None] * ab)), axis=1)))
 
 
-def _hand_middle(tip: np.ndarray, shoulders: np.ndarray, fine: FineDepth, scale: float) -> np.ndarray | None:
+def _hand_middle(tip: np.ndarray, shoulders: np.ndarray, fine: FineDepth, scale: float,
+                 legs: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray | None:
     """The hand at a coarse tip: of the full-resolution points near it, those within a hand's size of
-    the farthest one out from the shoulders (across the view: :mod:`interaction.hand_fit`), averaged
-    and moved back into the hand."""
-    pts = fine.points_near(tip, 0.14 * scale, 0.05, smooth=True)  # the 3×3 median: a third of the noise
-    if len(pts) < 4:
-        return None
-    hand = hand_points(pts, tip, shoulders, fine.camera, 2 * HAND_RADIUS_M * scale)
-    if len(hand) < 3:
-        return None
-    return fine.inset(hand.sum(axis=0) / len(hand), 2.0 / 3.0 * HAND_RADIUS_M * scale)
+    the farthest one out from the shoulders (across the view), again around them while the arm goes on
+    past the points looked at (:mod:`interaction.hand_fit`), averaged and moved back into the hand."""
+    # on the 3×3 median (a third of the noise); looked for again around the hand found while it moves
+    middle = follow_hand(lambda centre: fine.points_near(centre, 0.14 * scale, 0.05, smooth=True),
+                         tip, shoulders, fine.camera, 2 * HAND_RADIUS_M * scale, HAND_RADIUS_M * scale, legs,
+                         LEG_CLEAR_M * scale)
+    return None if middle is None else fine.inset(middle, 2.0 / 3.0 * HAND_RADIUS_M * scale)
 
 
 def find_feet(q: np.ndarray, fine: FineDepth, measured: list[np.ndarray] | None = None) -> list[np.ndarray]:

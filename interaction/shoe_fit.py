@@ -67,6 +67,15 @@ toes nearer the floor: p95 0.062 (0.062) → 0.061 (0.061) m, 103 (92) → 97 (8
 2 / 1.75 / 1.25 cm: 0.062 / 0.062 / 0.062 (0.062 / 0.061 / 0.062) m, 98 / 98 / 96 (89 / 87 / 85)): a small
 gain, of the size of the p95's noise from one threshold to the next; the count more than 5 cm off falls
 at each.
+Tried and not kept (then 0.061 (0.061) m; seed 200 0.063): a shoe on the floor put up by as much as
+its points seen (up to 10 cm over their lowest) average over a flat one's (cut + half a shoe's height:
+p50 8.7 cm on flat feet; their true middle ≈ that mean less the cut, least squares slope 0.99): 0.060
+(0.060) m, but seed 200 0.0629 → 0.0635 m, as many flat feet put over 5 cm high (9 / 11 / 14) as
+heel-up ones brought under (9 / 9 / 5), the same gated on few points in the lowest 3 cm; telling heel-up
+shoes by their share of points in their lowest 3 cm (AUC ≈ 0.9 against flat ones), by the spread of
+those points, their area, the slope of the points ahead of the shin or where the column leaves the
+shin's line (AUC 0.6–0.8): none apart enough; leaving out of a foot's column the points nearer the
+other foot's middle (staggered feet): 0.066 (0.061) m, 0.061 (0.060) beyond a 4–8 cm margin.
 """
 
 from __future__ import annotations
