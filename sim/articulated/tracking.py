@@ -38,6 +38,8 @@ far, the pair saturating (a planted foot makes the inertia seen at a hip, knee o
 its links'); and a joint past its limit set back onto it after each step (resetJointStateMultiDof, its
 outward rate removed: the child links jump, and a planted foot slides): worst 0°, but forward pushes of
 80–100 N fell it and no get-up stood (positions only: 100 N sideways at one phase, 6 of 8 get-ups).
+Joint damping on every joint (``changeDynamics`` ``jointDamping`` 1 or 5, to slow the swings that carry a
+joint past) makes it fall while walking, before any push (measured).
 """
 
 from __future__ import annotations
