@@ -40,6 +40,13 @@ outward rate removed: the child links jump, and a planted foot slides): worst 0�
 80–100 N fell it and no get-up stood (positions only: 100 N sideways at one phase, 6 of 8 get-ups).
 Joint damping on every joint (``changeDynamics`` ``jointDamping`` 1 or 5, to slow the swings that carry a
 joint past) makes it fall while walking, before any push (measured).
+Where the worst excesses happen (the sweep, logged step by step): a hip 60° sideways driven to 82° in
+6 steps, both feet down, the pelvis turning at 10–17 rad/s; a hip's twist 40° → 56° with both feet off
+the ground; one at 74° sideways with the pelvis at 60 rad/s: fast turns of the light pelvis under the
+walking assist (150 N·m on it) and the torso pair. Spreading that assist over the whole body (the same
+torque about the centre of mass, as forces m·α×r on every link: no strain on the joints) leaves it
+unable to balance: pushes of 0–80 N fell it at some phases (measured). Without the assist, or at 75 N·m,
+it falls walking.
 """
 
 from __future__ import annotations
