@@ -47,6 +47,11 @@ walking assist (150 N·m on it) and the torso pair. Spreading that assist over t
 torque about the centre of mass, as forces m·α×r on every link: no strain on the joints) leaves it
 unable to balance: pushes of 0–80 N fell it at some phases (measured). Without the assist, or at 75 N·m,
 it falls walking.
+The assist re-evaluated every physics step instead of held between control updates (its damping 5 /
+8 / 10 / 15 N·m·s/rad; walking off after a get-up as before): worst 29.1 / 12.8 / 16.2 / 20.5°, walk-offs
+7 / 8 / 4 / 6 of 8, pushes kept; but at 8, over 8 phases, 23.3° and 180 N forward at one. Each of these
+changes moves the sweep's figures about as much as any other: one push sweep is a single sample of a
+chaotic system, and a change is kept only when it holds over 8 phases as well.
 """
 
 from __future__ import annotations
