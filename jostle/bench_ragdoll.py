@@ -10,7 +10,9 @@ In one process, on the world's physics settings (``sim.physics.open_client``, 1/
 2. baseline: N DeepMimic humanoids loaded from pybullet_data's URDF, each tracking the same clip with
    pybullet's STABLE_PD_CONTROL at the same gains (one ``setJointMotorControlMultiDofArray`` per body per
    step, no balance, no state machine: they fall after a second or two, as DeepMimic's own PD does
-   without its policy) for the same time; ``cost_ratio_vs_baseline`` = walking wall time / baseline's;
+   without its policy) for the same time; ``cost_ratio_vs_baseline`` = walking wall time / baseline's.
+   Steps 1 and 2 run turn about, one simulated second of each in turn, each in its own client, so that
+   a machine whose load changes meanwhile slows both alike;
 3. pushes: for the forward and the sideways (to its left) direction and each of ``--phases`` walking
    phases (spread over one clip cycle after ``--warmup`` s of walking), a 0.2 s push on the pelvis
    rising from ``--push-start`` by ``--push-step`` N until the character falls within ``--after`` s
@@ -39,12 +41,12 @@ import argparse
 import copy
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Generator, Iterator
 from typing import Any
 
 import numpy as np
 
-from jostle.ragdoll_baseline import BenchSim, baseline, log
+from jostle.ragdoll_baseline import BenchSim, baseline_slices, log
 
 KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
         "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")
@@ -52,6 +54,7 @@ EXTRA_KEYS = ("walkoff_success", "joint_limit_excess_deg")  # beyond the issue's
 WALK_ON_S, WALK_ON_M = 6.0, 2.0  # a get-up is followed by this long, in which this far must be walked
 DOWN = ("fall", "lie", "stand_up")  # CharacterState values that count as fallen
 PUSH_S = 0.2
+SLICE_S = 1.0  # the walkers and the baseline run turn about, this many simulated seconds at a time
 
 
 class _Worst:
@@ -122,8 +125,12 @@ def _run(sim: BenchSim, chars: list[Any], steps: int, each: Callable[[int], None
     return spent
 
 
-def walking(n: int, seconds: float) -> tuple[float, float, float, float, float]:
-    """(wall s, simulated s, mean tracking error deg, peak assist N, peak assist N·m) for n walkers."""
+Walked = tuple[float, float, float, float, float]
+
+
+def walking_slices(n: int, seconds: float, slices: int) -> Generator[float, None, Walked]:
+    """n walkers for ``seconds``, in ``slices`` parts: yields the wall seconds of each part; returns (wall s,
+    simulated s, mean tracking error deg, peak assist N, peak assist N·m)."""
     sim = BenchSim.open()
     try:
         chars = [_new_character(sim, (0.0, 2.0 * i)) for i in range(n)]
@@ -131,13 +138,23 @@ def walking(n: int, seconds: float) -> tuple[float, float, float, float, float]:
         errors: list[float] = []
         states: list[str] = []
 
-        def sample(s: int) -> None:
-            if s % every == 0:
+        stepped = 0
+
+        def sample(_: int) -> None:
+            nonlocal stepped
+            if stepped % every == 0:
                 states.extend(str(c.state) for c in chars)
                 errors.extend(c.tracking_error_deg() for c in chars if str(c.state) in ("walk", "stagger"))
+            stepped += 1
 
         steps = round(seconds / sim.dt)
-        wall = _run(sim, chars, steps, sample)
+        wall, done = 0.0, 0
+        for k in range(slices):
+            upto = round(steps * (k + 1) / slices)
+            spent = _run(sim, chars, upto - done, sample)
+            done = upto
+            wall += spent
+            yield spent
         down = sum(str(c.state) in DOWN for c in chars)
         if down:
             log(f"walking: {down} of {n} characters fell while walking unpushed")
@@ -148,6 +165,23 @@ def walking(n: int, seconds: float) -> tuple[float, float, float, float, float]:
         return wall, steps * sim.dt, float(np.mean(errors)) if errors else math.nan, force, torque
     finally:
         sim.close()
+
+
+def interleaved(runs: list[Iterator[float]]) -> list[tuple[float, Any]]:
+    """Run timed runs turn about, a slice of each in turn, until all are done: (wall seconds in all its
+    slices, what it returned) of each. Timed so, a ratio of two runs holds on a machine whose load changes
+    while they run (one after the other, on a busy machine: a ratio of 1.22 where alone it was 0.96)."""
+    totals = [0.0] * len(runs)
+    results: list[Any] = [None] * len(runs)
+    live = list(range(len(runs)))
+    while live:
+        for i in list(live):
+            try:
+                totals[i] += next(runs[i])
+            except StopIteration as stop:
+                results[i] = stop.value
+                live.remove(i)
+    return list(zip(totals, results, strict=True))
 
 
 def _direction(char: Any, side: bool) -> np.ndarray:
@@ -282,8 +316,10 @@ def run(args: argparse.Namespace) -> dict[str, object]:
 
     hz = 1.0 / WorldConfig().physics_dt
     worst = _Worst()
-    wall, simulated, error, assist_n, assist_nm = walking(s.characters, s.seconds)
-    base = baseline(s.characters, s.seconds)
+    slices = max(1, math.ceil(s.seconds / SLICE_S))
+    (_, walked), (base, _) = interleaved([walking_slices(s.characters, s.seconds, slices),
+                                          baseline_slices(s.characters, s.seconds, slices)])
+    wall, simulated, error, assist_n, assist_nm = walked
     forward, per_fwd, up_fwd, on_fwd, peak_fwd = push_test(s, side=False, worst=worst)
     sideways, per_side, up_side, on_side, peak_side = push_test(s, side=True, worst=worst)
     assist_n = max(assist_n, peak_fwd[0], peak_side[0])

@@ -40,8 +40,10 @@ class BenchSim:
         p.disconnect(physicsClientId=self.client)
 
 
-def baseline(n: int, seconds: float) -> float:
-    """Wall seconds for n DeepMimic humanoids tracking the walk clip with pybullet's stable PD."""
+def baseline_slices(n: int, seconds: float, slices: int) -> Iterator[float]:
+    """n DeepMimic humanoids tracking the walk clip with pybullet's stable PD for ``seconds``, in ``slices``
+    parts: the wall seconds of each part, one per ``next`` (so that the bench can run it turn about with
+    what it compares it with, and a machine busier for a while slows both alike)."""
     import pybullet as p
 
     from sim.articulated.build import source_to_stage
@@ -84,7 +86,11 @@ def baseline(n: int, seconds: float) -> float:
         steps = round(seconds / sim.dt)
         fell_at: float | None = None
         spent = 0.0
+        ends = {round(steps * (k + 1) / slices) for k in range(slices)}
         for s in range(steps):
+            if s in ends:
+                yield spent
+                spent = 0.0
             mark = time.perf_counter()
             _, _, target = targets(s * sim.dt)
             for b in bodies:
@@ -97,7 +103,7 @@ def baseline(n: int, seconds: float) -> float:
                 fell_at = s * sim.dt
         log("baseline: " + (f"fell after {fell_at:.1f} s (no balance, as expected)" if fell_at is not None
                             else "stayed up"))
-        return spent
+        yield spent
     finally:
         sim.close()
 

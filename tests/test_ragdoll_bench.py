@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Generator
 
 import pytest
 
 from jostle.bench_cli import BENCHES, main_json
-from jostle.bench_ragdoll import EXTRA_KEYS, KEYS
+from jostle.bench_ragdoll import EXTRA_KEYS, KEYS, interleaved, walking_slices
+from jostle.ragdoll_baseline import baseline_slices
 
 
 def test_quick_bench_reports_the_issues_keys() -> None:
@@ -36,3 +38,27 @@ def test_bad_flags_are_one_line_errors() -> None:
         main_json("ragdoll", ["--phases", "0"])
     with pytest.raises(ValueError, match=r"--push-start: expected 0 <= start <= --push-max=100.0, got 200.0"):
         main_json("ragdoll", ["--push-start", "200", "--push-max", "100"])
+
+
+def test_runs_take_turns_one_slice_each_until_all_are_done() -> None:
+    order: list[str] = []
+
+    def run(name: str, slices: int) -> Generator[float, None, str]:
+        for k in range(slices):
+            order.append(f"{name}{k}")
+            yield 0.5
+        return f"{name} done"
+
+    result = interleaved([run("a", 3), run("b", 2)])
+    assert order == ["a0", "b0", "a1", "b1", "a2"]
+    assert result == [(1.5, "a done"), (1.0, "b done")]
+
+
+def test_walking_in_slices_is_the_same_walk_and_the_baseline_yields_each_slice() -> None:
+    whole = interleaved([walking_slices(1, 0.25, 1)])[0][1]
+    parts = walking_slices(1, 0.25, 3)
+    (wall, sliced), = interleaved([parts])
+    assert sliced[1:] == whole[1:]  # simulated time, tracking error, assist: the same trace
+    assert sliced[1] == pytest.approx(0.25) and wall == pytest.approx(sliced[0])
+    times = list(baseline_slices(1, 0.25, 3))
+    assert len(times) == 3 and all(t > 0 for t in times)
