@@ -45,7 +45,8 @@ Where the worst excesses happen (the sweep, logged step by step): a hip 60° sid
 the ground; one at 74° sideways with the pelvis at 60 rad/s: fast turns of the light pelvis under the
 walking assist (150 N·m on it) and the torso pair. Spreading that assist over the whole body (the same
 torque about the centre of mass, as forces m·α×r on every link: no strain on the joints) leaves it
-unable to balance: pushes of 0–80 N fell it at some phases (measured). Without the assist, or at 75 N·m,
+unable to balance: pushes of 0–80 N fell it at some phases (over the pelvis and the chest, by mass or
+half each: 80–160 N) (measured). Without the assist, or at 75 N·m,
 it falls walking.
 The assist re-evaluated every physics step instead of held between control updates (its damping 5 /
 8 / 10 / 15 N·m·s/rad; walking off after a get-up as before): worst 29.1 / 12.8 / 16.2 / 20.5°, walk-offs
