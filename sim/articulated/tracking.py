@@ -29,7 +29,7 @@ impulse on, as the world has it, a joint more than ~2.3° past stays there under
 measured, hips and ankles hinged in x-y-z order: worst excess 18.3°, pushes 240 / 300 N kept, but
 walk-offs after a get-up 4 of 8 (7 of 8 as built here); other orders and link masses did worse.
 Also measured on the same sweep and not kept: the engine's ball/universal limits 12 / 15 / 18° inside the
-skeleton's: worst 10.1 / 6.4 / 8.8°, but sideways minimum 340 / 200 / 100 N and walk-offs 3 / 0 / 0 of 8
+skeleton's: worst 10.1 / 6.4 / 8.8°, but sideways minimum 300 / 200 / 100 N and walk-offs 3 / 0 / 0 of 8
 (15° on the twist alone, of every ball joint / of the hips: 16.9 / 13.7°, walk-offs 6 / 5 of 8,
 sideways minimum 100 / 300 N); a stop
 as an internal torque pair on the two links of a joint (sized from the two sides' inertia about the
