@@ -13,7 +13,7 @@
   (``hurried_rate``).
 
 Without the walking assist on the pelvis (``sim.articulated.assist``) it does not walk: measured, with
-the torso pair alone (``torso_kp`` 500–3000, ``torso_kd`` 50–300, with or without the stance hip's own
+the torso pair alone (``torso_kp`` 500–3000, ``torso_kd`` 10–300, with or without the stance hip's own
 PD) it falls within 0.15–0.7 s; with the torso control moved into the stance hip's stable-PD target (the
 hip rotation that would put the pelvis at its desired world orientation, no pair, no assist; stance hip
 gain 0.5–2) within 1.2–1.3 s. An assist-free walker needs its foot placement retuned with it.
