@@ -31,6 +31,9 @@ In one process, on the world's physics settings (``sim.physics.open_client``, 1/
    with constraint rows that exist only once a joint is past its limit and ask back 4 % of the excess a
    step, along the child link's axes rather than the angles limited: a fast compound swing (the crossing
    step of a push just short of a fall) carries a hip or an ankle well past (tests/test_articulated_limits.py).
+   ``joint_limit_excess_deg_unpushed`` / ``_pushed`` / ``_down`` / ``_walkoff`` split it by when: walking up
+   to a push; upright after one (staggering, recovering, walking on); fallen (falling, lying, getting up);
+   walking off after a get-up.
 
 Details (per phase, the baseline's fall time, assist torque) go to stderr; the figures are the keys above.
 """
@@ -50,22 +53,35 @@ from jostle.ragdoll_baseline import BenchSim, baseline_slices, log
 
 KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
         "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")
-EXTRA_KEYS = ("walkoff_success", "joint_limit_excess_deg")  # beyond the issue's keys: what else it asks
+EXTRA_KEYS = ("walkoff_success", "joint_limit_excess_deg", "joint_limit_excess_deg_unpushed",
+              "joint_limit_excess_deg_pushed", "joint_limit_excess_deg_down",
+              "joint_limit_excess_deg_walkoff")  # beyond the issue's keys: what else it asks
 WALK_ON_S, WALK_ON_M = 6.0, 2.0  # a get-up is followed by this long, in which this far must be walked
 DOWN = ("fall", "lie", "stand_up")  # CharacterState values that count as fallen
 PUSH_S = 0.2
 SLICE_S = 1.0  # the walkers and the baseline run turn about, this many simulated seconds at a time
 
 
+EXCESS_WHEN = ("unpushed", "pushed", "down", "walkoff")  # joint_limit_excess_deg_<when>: see the module doc
+
+
 class _Worst:
-    """The largest joint-limit excess (radians) seen on any character watched."""
+    """The largest joint-limit excess (radians) seen on any character watched, overall and by when: walking
+    up to a push (``unpushed``), upright after a push (``pushed``), fallen (falling, lying, getting up:
+    ``down``), walking off after a get-up (``walkoff``). Callers set ``when``; ``down`` is read from the
+    character's state."""
 
     def __init__(self) -> None:
         self.rad = 0.0
+        self.when = "unpushed"
+        self.by_when = dict.fromkeys(EXCESS_WHEN, 0.0)
 
     def see(self, chars: list[Any]) -> None:
         for c in chars:
-            self.rad = max(self.rad, float(c.limit_excess()))
+            e = float(c.limit_excess())
+            self.rad = max(self.rad, e)
+            when = "down" if str(c.state) in DOWN else self.when
+            self.by_when[when] = max(self.by_when[when], e)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -200,6 +216,7 @@ def _walked(s: argparse.Namespace, phase: int, worst: _Worst) -> tuple[BenchSim,
     sim = BenchSim.open()
     char = _new_character(sim, (0.0, 0.0))
     cycle = float(char.walk.duration) if hasattr(char, "walk") else 1.3
+    worst.when = "unpushed"
     _run(sim, [char], round((s.warmup + cycle * phase / s.phases) / sim.dt), lambda _: worst.see([char]))
     return sim, char
 
@@ -251,6 +268,7 @@ def push_test(s: argparse.Namespace, side: bool,
             best, force = 0.0, float(s.push_start)
             while force <= s.push_max + 1e-9:
                 char = point.restore()
+                worst.when = "pushed"
                 char.push("root", tuple(float(v) for v in force * _direction(char, side)), PUSH_S)
                 fell_at = _watch(point.sim, char, s.after, worst)
                 if fell_at is not None:
@@ -289,6 +307,7 @@ def _watch(sim: BenchSim, char: Any, seconds: float, worst: _Worst, settle: bool
 def _walks_on(sim: BenchSim, char: Any, worst: _Worst) -> bool:
     """Whether a character that just stood up walks ``WALK_ON_M`` in ``WALK_ON_S`` without falling again."""
     start = np.array(char.root()[0], dtype=float)
+    worst.when = "walkoff"
     fell = _watch(sim, char, WALK_ON_S, worst, settle=False) is not None
     moved = float(np.linalg.norm((np.array(char.root()[0], dtype=float) - start)[:2]))
     return not fell and moved >= WALK_ON_M
@@ -340,5 +359,6 @@ def run(args: argparse.Namespace) -> dict[str, object]:
         "external_assist_n": round(assist_n, 1),
         "walkoff_success": round(sum(walkoffs) / len(walkoffs), 3) if walkoffs else None,
         "joint_limit_excess_deg": round(math.degrees(worst.rad), 2),
+        **{f"joint_limit_excess_deg_{when}": round(math.degrees(rad), 2) for when, rad in worst.by_when.items()},
     }
     return figures

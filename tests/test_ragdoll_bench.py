@@ -8,7 +8,7 @@ from collections.abc import Generator
 import pytest
 
 from jostle.bench_cli import BENCHES, main_json
-from jostle.bench_ragdoll import EXTRA_KEYS, KEYS, interleaved, walking_slices
+from jostle.bench_ragdoll import EXCESS_WHEN, EXTRA_KEYS, KEYS, interleaved, walking_slices
 from jostle.ragdoll_baseline import baseline_slices
 
 
@@ -30,6 +30,11 @@ def test_quick_bench_reports_the_issues_keys() -> None:
     assert figures["walkoff_success"] is None  # quick: nothing stands again in 0.5 s
     excess = figures["joint_limit_excess_deg"]
     assert isinstance(excess, float) and 0 <= excess < 180
+    by_when = {when: figures[f"joint_limit_excess_deg_{when}"] for when in EXCESS_WHEN}
+    assert max(by_when.values()) == excess  # the split covers every step the overall figure read
+    assert by_when["walkoff"] == 0.0  # quick: nothing walks off
+    if survived == (600.0, 600.0):
+        assert by_when["down"] == 0.0  # nothing fell
     assert "ragdoll" in BENCHES
 
 
