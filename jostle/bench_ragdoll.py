@@ -31,9 +31,10 @@ In one process, on the world's physics settings (``sim.physics.open_client``, 1/
    with constraint rows that exist only once a joint is past its limit and ask back 4 % of the excess a
    step, along the child link's axes rather than the angles limited: a fast compound swing (the crossing
    step of a push just short of a fall) carries a hip or an ankle well past (tests/test_articulated_limits.py).
-   ``joint_limit_excess_deg_unpushed`` / ``_pushed`` / ``_down`` / ``_walkoff`` split it by when: walking up
-   to a push; upright after one (staggering, recovering, walking on); fallen (falling, lying, getting up);
-   walking off after a get-up.
+   ``joint_limit_excess_deg_unpushed`` / ``_survived`` / ``_felled`` / ``_down`` / ``_walkoff`` split it by
+   when: walking up to a push; upright after a push it survived (staggering, recovering, walking on);
+   upright after a push that then felled it (up to the fall); fallen (falling, lying, getting up); walking
+   off after a get-up.
 
 Details (per phase, the baseline's fall time, assist torque) go to stderr; the figures are the keys above.
 """
@@ -54,7 +55,7 @@ from jostle.ragdoll_baseline import BenchSim, baseline_slices, log
 KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
         "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")
 EXTRA_KEYS = ("walkoff_success", "joint_limit_excess_deg", "joint_limit_excess_deg_unpushed",
-              "joint_limit_excess_deg_pushed", "joint_limit_excess_deg_down",
+              "joint_limit_excess_deg_survived", "joint_limit_excess_deg_felled", "joint_limit_excess_deg_down",
               "joint_limit_excess_deg_walkoff")  # beyond the issue's keys: what else it asks
 WALK_ON_S, WALK_ON_M = 6.0, 2.0  # a get-up is followed by this long, in which this far must be walked
 DOWN = ("fall", "lie", "stand_up")  # CharacterState values that count as fallen
@@ -62,26 +63,35 @@ PUSH_S = 0.2
 SLICE_S = 1.0  # the walkers and the baseline run turn about, this many simulated seconds at a time
 
 
-EXCESS_WHEN = ("unpushed", "pushed", "down", "walkoff")  # joint_limit_excess_deg_<when>: see the module doc
+EXCESS_WHEN = ("unpushed", "survived", "felled", "down", "walkoff")  # joint_limit_excess_deg_<when>: module doc
 
 
 class _Worst:
-    """The largest joint-limit excess (radians) seen on any character watched, overall and by when: walking
-    up to a push (``unpushed``), upright after a push (``pushed``), fallen (falling, lying, getting up:
-    ``down``), walking off after a get-up (``walkoff``). Callers set ``when``; ``down`` is read from the
-    character's state."""
+    """The largest joint-limit excess (radians) seen on any character watched, overall and by when (see
+    ``EXCESS_WHEN``). Callers set ``when`` ("pushed" until ``end_push`` says whether the push felled it);
+    ``down`` is read from the character's state."""
 
     def __init__(self) -> None:
         self.rad = 0.0
         self.when = "unpushed"
         self.by_when = dict.fromkeys(EXCESS_WHEN, 0.0)
+        self._push = 0.0  # upright after the current push, not yet known to be survived or felled
 
     def see(self, chars: list[Any]) -> None:
         for c in chars:
             e = float(c.limit_excess())
             self.rad = max(self.rad, e)
-            when = "down" if str(c.state) in DOWN else self.when
-            self.by_when[when] = max(self.by_when[when], e)
+            if str(c.state) in DOWN:
+                self.by_when["down"] = max(self.by_when["down"], e)
+            elif self.when == "pushed":
+                self._push = max(self._push, e)
+            else:
+                self.by_when[self.when] = max(self.by_when[self.when], e)
+
+    def end_push(self, felled: bool) -> None:
+        when = "felled" if felled else "survived"
+        self.by_when[when] = max(self.by_when[when], self._push)
+        self._push = 0.0
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -271,6 +281,7 @@ def push_test(s: argparse.Namespace, side: bool,
                 worst.when = "pushed"
                 char.push("root", tuple(float(v) for v in force * _direction(char, side)), PUSH_S)
                 fell_at = _watch(point.sim, char, s.after, worst)
+                worst.end_push(fell_at is not None)
                 if fell_at is not None:
                     getups.append(_stands_again(point.sim, char, s.getup_window - (s.after - fell_at), worst))
                     if getups[-1] and not s.quick:

@@ -34,7 +34,9 @@ def test_quick_bench_reports_the_issues_keys() -> None:
     assert max(by_when.values()) == excess  # the split covers every step the overall figure read
     assert by_when["walkoff"] == 0.0  # quick: nothing walks off
     if survived == (600.0, 600.0):
-        assert by_when["down"] == 0.0  # nothing fell
+        assert by_when["down"] == by_when["felled"] == 0.0  # nothing fell
+    if survived == (0.0, 0.0):
+        assert by_when["survived"] == 0.0  # no push was survived
     assert "ragdoll" in BENCHES
 
 
@@ -67,3 +69,30 @@ def test_walking_in_slices_is_the_same_walk_and_the_baseline_yields_each_slice()
     assert sliced[1] == pytest.approx(0.25) and wall == pytest.approx(sliced[0])
     times = list(baseline_slices(1, 0.25, 3))
     assert len(times) == 3 and all(t > 0 for t in times)
+
+
+class _Seen:
+    """What ``_Worst.see`` reads of a character: its state and its excess now."""
+
+    def __init__(self, state: str, excess: float) -> None:
+        self.state, self.excess = state, excess
+
+    def limit_excess(self) -> float:
+        return self.excess
+
+
+def test_the_excess_is_split_by_when_it_happened() -> None:
+    from jostle.bench_ragdoll import _Worst
+
+    worst = _Worst()
+    worst.see([_Seen("walk", 0.01)])  # walking up to a push
+    worst.when = "pushed"
+    worst.see([_Seen("stagger", 0.1)])
+    worst.end_push(felled=False)
+    worst.see([_Seen("stagger", 0.2), _Seen("walk", 0.05)])
+    worst.see([_Seen("fall", 0.3)])
+    worst.end_push(felled=True)
+    worst.when = "walkoff"
+    worst.see([_Seen("walk", 0.04)])
+    assert worst.by_when == {"unpushed": 0.01, "survived": 0.1, "felled": 0.2, "down": 0.3, "walkoff": 0.04}
+    assert worst.rad == 0.3
