@@ -21,18 +21,15 @@ UPRIGHT = (CharacterState.WALK, CharacterState.STAGGER)
 def walk(client: int, skeleton: ArticulatedSkeleton, seconds: float, spec: ArticulatedSpec | None = None,
          heading: float = 0.0) -> tuple[ArticulatedCharacter, dict[str, list[float]]]:
     ch = ArticulatedCharacter(client, skeleton, spec or ArticulatedSpec(), None, (0.0, 0.0), heading)
-    trace: dict[str, list[float]] = {"error": [], "excess": [], "hinge_excess": [], "x": [], "y": [], "up": []}
-    hinges = [k for k, i in enumerate(ch.driven) if skeleton.links[i].kind == "hinge"]
+    trace: dict[str, list[float]] = {"error": [], "excess": [], "x": [], "y": [], "up": []}
     for i in range(int(round(seconds / DT))):
         ch.step_control(DT)
         p.stepSimulation(physicsClientId=client)
+        excess = ch.tracker.limits.excess(ch.joint_angles())  # every physics step
+        trace["excess"].append(float(excess.max()))
         if i % 12 == 11:
-            rots = ch.joint_angles()
-            excess = ch.tracker.limits.excess(rots)
             com, _ = ch.com_state()
             trace["error"].append(ch.tracking_error_deg())
-            trace["excess"].append(float(excess.max()))
-            trace["hinge_excess"].append(float(excess[hinges].max()))
             trace["x"].append(float(com[0]))
             trace["y"].append(float(com[1]))
             trace["up"].append(1.0 if ch.state in UPRIGHT else 0.0)
@@ -47,9 +44,9 @@ def test_walks_five_seconds_tracking_the_clip(client: int, skeleton: Articulated
     along = trace["x"][-1] * math.cos(heading) + trace["y"][-1] * math.sin(heading)
     assert along > 3.0
     assert float(np.mean(trace["error"])) < 12.0  # degrees, mean over the 12 driven joints
-    # ball/universal joints: targets are clamped into the limits; under load the body overshoots a little
-    assert max(trace["excess"]) < math.radians(10.0)
-    assert max(trace["hinge_excess"]) < 0.02  # knees/elbows: pybullet's own joint limits
+    # walking unpushed, no joint is ever outside its limits, at any physics step (targets are clamped inside;
+    # pushes, falls and get-ups do carry joints past: tests/test_articulated_limits.py, jostle bench ragdoll)
+    assert max(trace["excess"]) == 0.0
     assert ch.external_assist_peak_n <= ArticulatedSpec().assist_force_max_n + 1e-9
     assert ch.external_assist_peak_nm <= ArticulatedSpec().assist_torque_max_nm + 1e-9
 
@@ -110,9 +107,8 @@ def test_walks_thirty_seconds(client: int, skeleton: ArticulatedSkeleton) -> Non
     ch, trace = walk(client, skeleton, 30.0)
     assert ch.falls == 0 and min(trace["up"]) == 1.0
     assert math.hypot(trace["x"][-1], trace["y"][-1]) > 8.0  # (its heading drifts: it walks a wide curve)
-    assert max(trace["excess"]) < math.radians(10.0)
+    assert max(trace["excess"]) == 0.0  # never outside a limit, at any of its 7200 physics steps
     assert float(np.mean(trace["error"])) < 12.0
-    assert max(trace["hinge_excess"]) < 0.02
 
 
 def test_steering_turns_the_walk(client: int, skeleton: ArticulatedSkeleton) -> None:
