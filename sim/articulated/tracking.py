@@ -65,6 +65,11 @@ iterations) that holds a joint out. And no pybullet stop is hard against torques
 body: one link on a fixed base under a steady 150 N·m in 60 random directions for 1 s goes 82° past a
 spherical limit at the median (with its twist axis along the bone instead: 139°), and 16–20° past three
 revolute limits in series even with split impulse off and 50 solver iterations.
+The torques on the pelvis (torso pair, assist) spared their component that turns a hip or the chest further
+past its limit (the excess's gradient, per control update): walking off after a get-up, 13.6° → 0.8° over 4
+phases, but over 8 a walk-off staggered an ankle 17.0° past, and the worst after pushes was unchanged
+(22.4°: that hip is driven past by the push itself, both feet down) (``jostle bench ragdoll``'s
+``joint_limit_excess_deg_*`` split). Not kept.
 """
 
 from __future__ import annotations
