@@ -11,6 +11,11 @@ frame's instant, and the true part's motion over the last frame interval (what a
 only the frames can know). :class:`LinearCeiling` goes one step further: the best any tracker that
 combines the last few exact positions linearly could claim (an optimistic bound: no depth noise, and its
 weights fitted to the very velocities it is scored against).
+
+Those ceilings are the people's motion, not an artefact of how the performer plays its clips (slerp between
+mocap frames, whose velocity jumps at every frame): with the clips sampled by a C¹ curve instead (Catmull-Rom
+on the rotations and the root), measured at 15 fps, seed 0, the sampled-truth p95 is 49.0° (47.0° as played)
+and the best linear one 51.2° (47.5°).
 """
 
 from __future__ import annotations
