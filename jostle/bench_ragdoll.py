@@ -89,9 +89,13 @@ class _Worst:
                 self.by_when[self.when] = max(self.by_when[self.when], e)
 
     def end_push(self, felled: bool) -> None:
+        """The push just watched survived or felled the character; after a fall, until the next ``when``,
+        what is seen counts as ``down`` (getting up)."""
         when = "felled" if felled else "survived"
         self.by_when[when] = max(self.by_when[when], self._push)
         self._push = 0.0
+        if felled:
+            self.when = "down"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

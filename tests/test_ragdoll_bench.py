@@ -92,6 +92,7 @@ def test_the_excess_is_split_by_when_it_happened() -> None:
     worst.see([_Seen("stagger", 0.2), _Seen("walk", 0.05)])
     worst.see([_Seen("fall", 0.3)])
     worst.end_push(felled=True)
+    worst.see([_Seen("walk", 0.25)])  # standing again: still down until the walk-off starts
     worst.when = "walkoff"
     worst.see([_Seen("walk", 0.04)])
     assert worst.by_when == {"unpushed": 0.01, "survived": 0.1, "felled": 0.2, "down": 0.3, "walkoff": 0.04}
