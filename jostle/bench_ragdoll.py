@@ -54,16 +54,13 @@ from jostle.ragdoll_baseline import BenchSim, baseline_slices, log
 
 KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
         "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")
-EXTRA_KEYS = ("walkoff_success", "joint_limit_excess_deg", "joint_limit_excess_deg_unpushed",
-              "joint_limit_excess_deg_survived", "joint_limit_excess_deg_felled", "joint_limit_excess_deg_down",
-              "joint_limit_excess_deg_walkoff")  # beyond the keys: what else it asks
+EXCESS_WHEN = ("unpushed", "survived", "felled", "down", "walkoff")  # joint_limit_excess_deg_<when>: module doc
+EXTRA_KEYS = ("walkoff_success", "joint_limit_excess_deg",
+              *(f"joint_limit_excess_deg_{when}" for when in EXCESS_WHEN))  # beyond the keys
 WALK_ON_S, WALK_ON_M = 6.0, 2.0  # a get-up is followed by this long, in which this far must be walked
 DOWN = ("fall", "lie", "stand_up")  # CharacterState values that count as fallen
 PUSH_S = 0.2
 SLICE_S = 1.0  # the walkers and the baseline run turn about, this many simulated seconds at a time
-
-
-EXCESS_WHEN = ("unpushed", "survived", "felled", "down", "walkoff")  # joint_limit_excess_deg_<when>: module doc
 
 
 class _Worst:
