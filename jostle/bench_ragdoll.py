@@ -24,7 +24,8 @@ In one process, on the world's physics settings (``sim.physics.open_client``, 1/
    watched for 6 s more: ``walkoff_success`` is the fraction that walked on 2 m or more without falling
    again (the clip is resumed from a stand, its hardest moment);
 5. ``external_assist_n``: the largest external force any character put on its own root (0 if none);
-   the largest assist torque is printed on stderr;
+   ``external_assist_nm``: the largest external torque (the walking assist turning the pelvis upright, and
+   the get-up's), both over every step of 1, 3 and 4;
 6. ``joint_limit_excess_deg``: the most any joint of any character went past its limit, read after every
    physics step of steps 3 and 4 (walking up to a push, pushed, falling, lying, getting up; not in the
    timed walk of step 1, where reading the joints would be timed with it). pybullet holds the limits
@@ -36,7 +37,7 @@ In one process, on the world's physics settings (``sim.physics.open_client``, 1/
    upright after a push that then felled it (up to the fall); fallen (falling, lying, getting up); walking
    off after a get-up.
 
-Details (per phase, the baseline's fall time, assist torque) go to stderr; the figures are the keys above.
+Details (per phase, the baseline's fall time) go to stderr; the figures are the keys above.
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ from jostle.ragdoll_baseline import BenchSim, baseline_slices, log
 KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
         "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")
 EXCESS_WHEN = ("unpushed", "survived", "felled", "down", "walkoff")  # joint_limit_excess_deg_<when>: module doc
-EXTRA_KEYS = ("walkoff_success", "joint_limit_excess_deg",
+EXTRA_KEYS = ("external_assist_nm", "walkoff_success", "joint_limit_excess_deg",
               *(f"joint_limit_excess_deg_{when}" for when in EXCESS_WHEN))  # beyond the issue's keys
 WALK_ON_S, WALK_ON_M = 6.0, 2.0  # a get-up is followed by this long, in which this far must be walked
 DOWN = ("fall", "lie", "stand_up")  # CharacterState values that count as fallen
@@ -369,6 +370,7 @@ def run(args: argparse.Namespace) -> dict[str, object]:
         "max_survived_side_n": sideways,
         "getup_success": round(sum(getups) / len(getups), 3) if getups else None,
         "external_assist_n": round(assist_n, 1),
+        "external_assist_nm": round(assist_nm, 1),
         "walkoff_success": round(sum(walkoffs) / len(walkoffs), 3) if walkoffs else None,
         "joint_limit_excess_deg": round(math.degrees(worst.rad), 2),
         **{f"joint_limit_excess_deg_{when}": round(math.degrees(rad), 2) for when, rad in worst.by_when.items()},

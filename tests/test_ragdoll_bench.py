@@ -10,6 +10,7 @@ import pytest
 from jostle.bench_cli import BENCHES, main_json
 from jostle.bench_ragdoll import EXCESS_WHEN, EXTRA_KEYS, KEYS, interleaved, walking_slices
 from jostle.ragdoll_baseline import baseline_slices
+from sim.articulated.spec import ArticulatedSpec
 
 
 def test_quick_bench_reports_the_issues_keys() -> None:
@@ -27,6 +28,9 @@ def test_quick_bench_reports_the_issues_keys() -> None:
     assert figures["getup_success"] == (None if survived == (600.0, 600.0) else 0.0)
     assist = figures["external_assist_n"]
     assert isinstance(assist, float) and assist >= 0 and math.isfinite(assist)
+    spec = ArticulatedSpec()  # the walking assist turns the pelvis: reported, and within its bounds
+    bound = max(spec.assist_torque_max_nm * spec.walk_in_assist, spec.getup_assist_torque_max_nm)
+    assert isinstance(figures["external_assist_nm"], float) and 0 < figures["external_assist_nm"] <= bound + 0.05
     assert figures["walkoff_success"] is None  # quick: nothing stands again in 0.5 s
     excess = figures["joint_limit_excess_deg"]
     assert isinstance(excess, float) and 0 <= excess < 180
