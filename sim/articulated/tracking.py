@@ -75,11 +75,13 @@ phases: after pushes survived 11.8°, felled 22.1°, fallen 11.3°, walking off 
 16 of 16 get-ups as at 0.2, but walk-offs 12 of 16 (15 of 16 at 0.2), and tests/test_articulated_walkoff.py's
 face-down walk-off falls again (the rest of the suite passes with it; ``erp`` also sets how fast multibody
 contacts are pushed apart). At 0.5: 15.4 / 27.5 / 9.9 / 9.1°, walk-offs 12 of 16. Not kept.
-Why no setting makes them hard: a limit row sees the joint's velocity from before the step's torques act,
-and then asks back ``erp`` (× 0.2 more for a spherical limit) of the excess a step, so a joint held against
-a steady torque τ settles past its limit by about τ·dt² / (erp·I): a hinge (4.5 kg link, 0.2 m) under 50 /
-150 / 500 N·m sits 3.0 / 6.0 / 15.1° past, whatever the limit's effort (measured). Smaller steps harden them
-as dt²: the world at 480 Hz throughout, on the 4-phase sweep: worst 11.2°, but forward minimum 160 N and
+What makes them soft: with split impulse on (the world's setting), a hinge held against a steady torque
+(4.5 kg link, 0.2 m) settles past its limit: 3.0 / 6.0 / 15.1° under 50 / 150 / 500 N·m, whatever the
+limit's effort or ``erp`` (0.2, 0.8); 3.9° at 480 Hz, 0 at 960 Hz; with split impulse off, 0 at every rate
+(measured). But the sweep with split impulse off is no better (above): three hinges in series under the same
+150 N·m in random directions still go 17–25° past (p50, 10–50 iterations), and a ball joint's limit is
+another constraint. Smaller steps do harden the body's limits: the world at 480 Hz throughout, on the
+4-phase sweep: worst 11.2°, but forward minimum 160 N and
 walk-offs 5 of 8; 2 / 4 / 8 physics steps per 1/240 s from the push on (walking up to it as before): worst
 11.1 / 6.5 / 1.2°, sideways minimum 200 / 180 / 180 N (forward 220 / 240 / 0 N, the last a 20 N push felling
 it at one phase), walk-offs 5 / 7 / 2 of 8; 4 steps only while a joint is within 5 / 10° of a limit: 40.2 /
