@@ -85,7 +85,8 @@ another constraint. Smaller steps do harden the body's limits: the world at 480 
 walk-offs 5 of 8; 2 / 4 / 8 physics steps per 1/240 s from the push on (walking up to it as before): worst
 11.1 / 6.5 / 1.2°, sideways minimum 200 / 180 / 180 N (forward 220 / 240 / 0 N, the last a 20 N push felling
 it at one phase), walk-offs 5 / 7 / 2 of 8; 4 steps only while a joint is within 5 / 10° of a limit: 40.2 /
-9.0° and forward 220 / 60 N. With the limits near hard, this controller's recovery from a sideways push
+9.0° and forward 220 / 60 N; 4 steps only while falling (and lying): fallen 9.6 → 6.4 (4.9)°, walking off
+13.6 → 24.3 (2.5)°, pushes as before. With the limits near hard, this controller's recovery from a sideways push
 (which crosses a hip past its range) is what gives. Not kept. Nor a cap on the joints' speed (``changeDynamics``
 ``maxJointVelocity`` 12 / 20 rad/s, default 100): worst 18.5 / 134.5°, sideways minimum 60 / 80 N.
 """
