@@ -59,6 +59,7 @@ from interaction.depth_parts import FineDepth, find_feet, find_hands
 from interaction.hidden_people import HiddenPeople
 from interaction.limb_tracks import LimbTracker
 from interaction.people import PeopleTracker, split_side_by_side
+from interaction.shoe_model import shipped_shoe_model
 from interaction.types import BodyObservation, Contactor
 from sensors.base import DepthImage, Frame
 
@@ -103,6 +104,7 @@ class DepthObserverConfig:
     limb_confirm_frames: int = 2  # a hand is reported once found in this many frames in a row
     foot_confirm_frames: int = 1  # … a foot in this many (its first frame's error is no larger: no confirming)
     limb_memory_frames: int = 3  # a track not found for longer is forgotten
+    shoe_model: bool = True  # feet corrected by the shipped shoe model (interaction.shoe_model); false: rules only
 
     def __post_init__(self) -> None:
         if not isinstance(self.work_width, int) or not 16 <= self.work_width <= 4096:
@@ -135,6 +137,8 @@ class DepthObserverConfig:
         _check("limb_steady_m", self.limb_steady_m, 0.0, 5.0)
         _check("limb_consistent_deg", self.limb_consistent_deg, 0.0, 180.0)
         _check("limb_min_speed", self.limb_min_speed, 0.0, 10.0)
+        if not isinstance(self.shoe_model, bool):
+            raise ValueError(f"shoe_model: expected true or false, got {self.shoe_model!r}")
 
 
 _KERNEL5 = np.ones((5, 5), np.uint8)
@@ -173,6 +177,9 @@ class DepthObserver:
         self._points: np.ndarray = np.zeros((0, 3))
         self._fine = FineDepth(calibration)
         self._feet_seen: list[np.ndarray] = []  # the last person's feet as measured on their points seen
+        self._shoes = shipped_shoe_model() if config.shoe_model else None
+        # a list here gets every foot's (features, position before the shoe model): jostle.shoe_model_fit
+        self.shoes_seen: list[tuple[np.ndarray, np.ndarray]] | None = None
         self._hidden = HiddenPeople(config.hidden_memory_s, config.hidden_near_m,
                                     (float(calibration.translation[0]), float(calibration.translation[1])))
         self._limbs = LimbTracker(gate_m=cfg.limb_gate_m, steady_m=cfg.limb_steady_m,
@@ -338,7 +345,7 @@ class DepthObserver:
         torso_r = float(np.sqrt(spread[2] / max(count[2], 1)))  # the chest band's RMS radius
         cfg = self._cfg
         self._feet_seen = []
-        feet = find_feet(q, self._fine, self._feet_seen)
+        feet = find_feet(q, self._fine, self._feet_seen, self._shoes, self.shoes_seen)
         hands = find_hands(q, top, axis, torso_r, feet, self._fine, band_low=cfg.hand_band_low,
                            min_reach=cfg.min_hand_reach_m, min_arm_reach=cfg.min_arm_reach)
         out.extend(("hand", "hand", h, 0.07) for h in hands)

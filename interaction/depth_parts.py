@@ -35,23 +35,21 @@ than ``HIDDEN_SHOE_SEEN_M2`` with something over ``HIDING_SHARE`` of the pixels 
 0.018 m² (crossing the view: its side; a 26 × 10 × 8 cm box shoe at 4 m shows 0.021 m² side-on,
 0.0135 m² toe-on, and is measured toe-on only when nothing nearer is beside it), and those seen on
 less than 0.011 m² (11 % of the feet, most behind the other leg) were off by p50 4–9 cm, p95 12 cm.
-Leaving feet out trades the found share for the error: on seed 0 (100) the area alone at 0.011 / 0.013
-/ 0.015 m² gives p95 (hands and feet) 0.078 / 0.075 / 0.073 m (0.077 / 0.076 / 0.074), found share
-0.498 / 0.483 / 0.466 (0.522 / 0.512 / 0.496); with the hiding rule 0.075 m (0.076) at 0.483 (0.513),
-and a shoe toe-on in the open is kept. What is left out is paid back by reporting a foot from the
-first frame it is found, where a hand waits for a second (feet p95 0.083 with or without that first
-frame on seed 0, 0.084 → 0.086 on seed 100).
+(On seed 0 (100) the area alone at 0.011 / 0.015 m²: p95 of hands and feet 0.078 / 0.073 m (0.077 / 0.074),
+found share 0.498 / 0.466 (0.522 / 0.496); with the hiding rule 0.075 m (0.076) at 0.483 (0.513).) A foot
+is reported from the first frame it is found, where a hand waits for a second. Last, each foot is moved
+by the shoe model (:mod:`interaction.shoe_model`): the mean correction of the feet most like it among
+virtual performers' feet whose true middles are known.
 
-Measured on the virtual performer at 640×400 (``jostle bench interaction``, seeds 0 and 100): hands
-p50 ≈ 1.2 cm, p95 3.7 and 3.3 cm (5.4 and 4.4 looked for once; 5.5 and 4.7 chosen in 3D; 6.0–6.3 cm on the raw
-depth instead of its 3×3 median, 12.6 and 9.9 cm
-before hidden arms were left out); feet p50 ≈ 2.5 cm, p95 6.8 and 7.2 cm (7.6–7.7 cm before a shoe's shape
-set the height of a shoe standing or hanging toe-down, 8.4 cm before half-hidden shoes were left out,
-9.3–9.4 cm with one column and no hidden-shoe rule). The feet's tracks follow them as measured on their
+Measured on the virtual performer at 640×400 (``jostle bench interaction``, seeds 0 and 100), before the
+shoe model: hands p50 ≈ 1.2 cm, p95 3.7 and 3.3 cm (5.4 and 4.4 looked for once; 5.5 and 4.7 chosen in 3D;
+6.0–6.3 cm on the raw depth, not its 3×3 median; 12.6 and 9.9 cm before hidden arms were left out); feet
+p50 ≈ 2.5 cm, p95 6.8 and 7.2 cm (7.6–7.7 cm before a shoe's shape set the height of a shoe standing or
+hanging, 8.4 cm before half-hidden shoes were left out). The feet's tracks follow them as measured on their
 points seen (held 4 cm up while they stand), not at the heights a shoe's shape gives, which jump as a
 foot goes from standing to hanging (followed there, 100 feet's velocities were claimed, not 172, p95 35°).
-Claimed directions, p95 (p90) over both seeds: hands 31° (27°) → 35° (28°) with the median, feet 23°
-(17°) → 28° (17°) (held at 3 cm as before: 23°, the same claims). The average of
+Claimed directions, p95 (p90), both seeds: hands 31° (27°) → 35° (28°) with the median, feet 23° (17°) →
+28° (17°) (held at 3 cm as before: 23°, the same claims). The average of
 a shoe's points cut out with the true shoe box (grown by 4 cm for the noise) reached feet p95 ≈ 7 cm
 (this module's points: 8.8 cm, before the shoe's shape). Tried and not kept (no better on p95, most on
 seed 0, all hands and feet 0.082 m then): the shoe's points cut out of the shin's axis (at the ankle it
@@ -73,7 +71,9 @@ import numpy as np
 
 from interaction.depth_calibration import DepthCalibration
 from interaction.hand_fit import follow_hand
+from interaction.people import two_clusters
 from interaction.shoe_fit import SHOE_HEIGHT_M, one_per_shoe, shoe_middle_height
+from interaction.shoe_model import ShoeModel, column_features
 from sensors.base import DepthImage
 
 __all__ = ["FineDepth", "find_feet", "find_hands"]
@@ -318,11 +318,15 @@ def _hand_middle(tip: np.ndarray, shoulders: np.ndarray, fine: FineDepth, scale:
     return None if middle is None else fine.inset(middle, 2.0 / 3.0 * HAND_RADIUS_M * scale)
 
 
-def find_feet(q: np.ndarray, fine: FineDepth, measured: list[np.ndarray] | None = None) -> list[np.ndarray]:
+def find_feet(q: np.ndarray, fine: FineDepth, measured: list[np.ndarray] | None = None,
+              shoes: ShoeModel | None = None,
+              shoe_rows: list[tuple[np.ndarray, np.ndarray]] | None = None) -> list[np.ndarray]:
     """The feet of one person (points ``q``): its points low over the floor (5–20 cm) that are under
     or beside its shins (20–45 cm; stray low points under a hand or beside the person are no foot),
     split in two (one when close together), each measured on the full image (see the module's
-    notes). ``measured`` gets each foot as measured on its points seen, before a shoe's shape sets its height."""
+    notes). ``measured`` gets each foot as measured on its points seen, before a shoe's shape sets its height;
+    ``shoes`` corrects each foot (:mod:`interaction.shoe_model`); ``shoe_rows`` gets each foot's
+    (features, position before that correction), except two found on one shoe."""
     z = q[:, 2]
     low, shins = q[(z > 0.05) & (z < FOOT_BAND_M)], q[(z > FOOT_BAND_M) & (z < FOOT_BAND_M + 0.25), :2]
     if len(low) < 4 or not len(shins):
@@ -333,7 +337,8 @@ def find_feet(q: np.ndarray, fine: FineDepth, measured: list[np.ndarray] | None 
     if len(low) < 4:
         return []
     size = (float(z.max()) / 1.6) ** 2  # a shoe's area goes with the person's height squared
-    out = []
+    out: list[np.ndarray] = []
+    found: list[tuple[np.ndarray, np.ndarray]] = []
     for members in two_clusters(low):
         centre = members.sum(axis=0) / len(members)
         column = fine.column_near(centre, 0.12, FLOOR_CUT_M, 0.3, smooth=True)
@@ -362,35 +367,19 @@ def find_feet(q: np.ndarray, fine: FineDepth, measured: list[np.ndarray] | None 
             measured.append(np.array([foot[0], foot[1], 0.5 * SHOE_HEIGHT_M]) if bottom < FOOT_ON_FLOOR_M else foot.copy())
         if height is not None:
             foot[2] = height
+        if shoes is not None or shoe_rows is not None:
+            features = column_features(column, fine.camera, height, float(shoe[:, 2].mean()))
+            found.append((features, foot.copy()))
+            if shoes is not None:
+                foot = shoes.corrected(foot, features, fine.camera)
         out.append(foot)
-    return one_per_shoe(out, measured)  # a shoe seen alone can be split in two (heel, toe)
+    feet = one_per_shoe(out, measured)  # a shoe seen alone can be split in two (heel, toe)
+    if shoe_rows is not None and len(feet) == len(out):
+        shoe_rows.extend(found)
+    return feet
 
 
 def _lowest(column: np.ndarray) -> float:
     """The height of a column's lowest points seen (its 10th percentile: not a stray point)."""
     k = len(column) // 10
     return float(np.partition(column[:, 2], k)[k])
-
-
-def two_clusters(pts: np.ndarray) -> list[np.ndarray]:
-    """Points split in two along their widest horizontal direction by 2-means on that direction (one
-    group when the two middles are closer than 12 cm): the groups' points."""
-    xy = pts[:, :2] - pts[:, :2].sum(axis=0) / len(pts)
-    cov = xy.T @ xy
-    angle = 0.5 * math.atan2(2 * cov[0, 1], cov[0, 0] - cov[1, 1])  # the widest direction
-    s = xy @ np.array([math.cos(angle), math.sin(angle)])
-    cut = 0.0
-    for _ in range(4):
-        to_left = s < cut
-        left, right = s[to_left], s[~to_left]
-        if len(left) < 2 or len(right) < 2:
-            return [pts]
-        cut = 0.5 * (float(left.sum()) / len(left) + float(right.sum()) / len(right))  # the means
-    to_a = s < cut
-    if to_a.sum() < 2 or (~to_a).sum() < 2:
-        return [pts]
-    a, b = pts[to_a], pts[~to_a]
-    gap = a[:, :2].sum(axis=0) / len(a) - b[:, :2].sum(axis=0) / len(b)
-    if math.sqrt(float(gap.dot(gap))) < 0.12:
-        return [pts]
-    return [a, b]

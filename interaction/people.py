@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-__all__ = ["Blob", "PeopleTracker", "find_blobs", "outline_points", "split_merged"]
+__all__ = ["Blob", "PeopleTracker", "find_blobs", "outline_points", "split_merged", "two_clusters"]
 
 _FEET_BAND = 0.08  # feet are the lowest points within this fraction of the blob's height from its bottom
 
@@ -288,3 +288,27 @@ def split_side_by_side(q: np.ndarray, separation: float, depth: int = 0) -> list
         if not waist and tops[k] < tops[1 - k] + _HEAD_ABOVE_M:
             return [q]  # no waist and no head above the rest: an arm thrown forward, not a second body
     return [*split_side_by_side(q[side], separation, depth + 1), *split_side_by_side(q[~side], separation, depth + 1)]
+
+
+def two_clusters(pts: np.ndarray) -> list[np.ndarray]:
+    """Points split in two along their widest horizontal direction by 2-means on that direction (one
+    group when the two middles are closer than 12 cm): the groups' points."""
+    xy = pts[:, :2] - pts[:, :2].sum(axis=0) / len(pts)
+    cov = xy.T @ xy
+    angle = 0.5 * math.atan2(2 * cov[0, 1], cov[0, 0] - cov[1, 1])  # the widest direction
+    s = xy @ np.array([math.cos(angle), math.sin(angle)])
+    cut = 0.0
+    for _ in range(4):
+        to_left = s < cut
+        left, right = s[to_left], s[~to_left]
+        if len(left) < 2 or len(right) < 2:
+            return [pts]
+        cut = 0.5 * (float(left.sum()) / len(left) + float(right.sum()) / len(right))  # the means
+    to_a = s < cut
+    if to_a.sum() < 2 or (~to_a).sum() < 2:
+        return [pts]
+    a, b = pts[to_a], pts[~to_a]
+    gap = a[:, :2].sum(axis=0) / len(a) - b[:, :2].sum(axis=0) / len(b)
+    if math.sqrt(float(gap.dot(gap))) < 0.12:
+        return [pts]
+    return [a, b]

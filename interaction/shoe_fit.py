@@ -25,7 +25,8 @@ puts it there from what the column of points over a foot shows (:func:`shoe_midd
   toe). Its middle is then half a shoe's length up from its lowest points along a shoe pitched
   ``HANGING_PITCH_DEG`` (a foot hanging pitches 45–90°: the least of it).
 
-Any other shoe is measured where its points are (None). Two feet found on one person nearer than a shoe's
+Any other shoe is measured where its points are (None). What these rules leave (a heel up, a toe hanging
+at a pitch the points do not tell) the shoe model then corrects (:mod:`interaction.shoe_model`). Two feet found on one person nearer than a shoe's
 width (``SHOE_WIDTH_M``) are one shoe (:func:`one_per_shoe`): a shoe seen alone, its other foot hidden, is
 as long as two feet side by side are wide, and its low points are split heel from toe. The sizes are a
 generic adult shoe's, not any one performer's. What stays ambiguous: a flat shoe in the air seen heel-on,

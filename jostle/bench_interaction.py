@@ -16,7 +16,9 @@ every frame, fuses them, and scores against the truth:
   of anyone on the stage, metres. Like is compared with like: a hand contactor with the middle of the
   performer's hand (the sphere 2 cm beyond the wrist), a foot with the middle of the shoe (not the
   wrist or the ankle joint). ``depth_extremity_found_share``: the share of all true hands and feet
-  (seen or hidden) that have a contactor of their part within 10 cm (what the error leaves out).
+  (seen or hidden) that have a contactor of their part within 10 cm (what the error leaves out). Feet
+  are corrected by the shipped shoe model (``interaction.shoe_model``, made from seeds 300–5000, never
+  the bench's 0, 100, 200); ``--no-shoe-model`` scores the shoe rules alone (``shoe_model`` says which).
 - ``webcam_extremity_error_m_p95``: the same for the webcam's hand/foot contactors in (x, z), the
   truth carried onto the webcam's stage plane through its own camera (what a webcam can know).
   Like the depth error it scores only the contactors reported, so a hand or foot left out costs it
@@ -80,6 +82,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="frame rate the webcam and the depth camera are recorded at (default 15; installations "
                              "run the OAK at 30): it sets how far a hand moves between frames")
     parser.add_argument("--keep", type=Path, default=None, metavar="DIR", help="record into DIR and keep the files (recordings already there are reused)")
+    parser.add_argument("--shoe-model", action=argparse.BooleanOptionalAction, default=True,
+                        help="correct the depth observer's feet with the shipped shoe model (default); "
+                             "--no-shoe-model: the shoe rules alone (interaction.shoe_model)")
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
@@ -107,13 +112,14 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             path = folder / f"crossing{n}-seed{args.seed}-{args.fps:g}fps-{duration:g}s-{size[0]}x{size[1]}.mcap"
             if not (args.keep is not None and path.is_file()):
                 _record(path, n, size, depth_size, duration, args.seed + n, args.fps)
-            _score_recording(path, scores, pose=False)
+            _score_recording(path, scores, pose=False, shoe_model=args.shoe_model)
             if n == 1:
-                _score_recording(path, scores, pose=True)
+                _score_recording(path, scores, pose=True, shoe_model=args.shoe_model)
     figures = scores.figures()
     figures["recordings"] = ",".join(f"{n} people" for n in counts)
     figures["sizes"] = f"webcam {size[0]}x{size[1]}, depth {depth_size[0]}x{depth_size[1]}"
     figures["frames_per_s"] = args.fps
+    figures["shoe_model"] = bool(args.shoe_model)  # feet corrected by interaction.shoe_model (else the rules alone)
     figures["targets_met"] = {k: _met(figures.get(k), *TARGETS[k]) for k in TARGETS if k != "webcam_pose_fps"}
     return figures
 
@@ -195,7 +201,7 @@ class _Scores:
         }
 
 
-def _score_recording(path: Path, scores: _Scores, *, pose: bool) -> None:
+def _score_recording(path: Path, scores: _Scores, *, pose: bool, shoe_model: bool = True) -> None:
     """Run the observers over one synthetic recording (channels webcam, oak, truth) and add up the scores."""
     from interaction.calibration import Calibration
     from interaction.depth import DepthObserver, DepthObserverConfig
@@ -230,7 +236,7 @@ def _score_recording(path: Path, scores: _Scores, *, pose: bool) -> None:
     if pose:
         return
     depth_frames = [(t_ns, seq, p) for t_ns, seq, p in iter_payloads(path, "oak") if isinstance(p, DepthImage)]
-    depth = DepthObserver(DepthObserverConfig(), _depth_calibration([p for _, _, p in depth_frames[:8]],
+    depth = DepthObserver(DepthObserverConfig(shoe_model=shoe_model), _depth_calibration([p for _, _, p in depth_frames[:8]],
                                                                     cameras["oak"].position))
     _settle()
     fusion = SensorFusion()

@@ -76,6 +76,57 @@ def add(sub: Any) -> None:
                      help="pad layout (top: rate_hz, newtons_per_count, noise_counts, zero_counts; then [[pad]] "
                      "tables with x, y, width, depth). Default: six 0.6 m pads at x = -1.2, 0, 1.2 and y = ±0.3")
     perf.set_defaults(func=cmd_synth_performer)
+    shoes = kinds.add_parser(
+        "shoe-model",
+        help="make the depth observer's shoe model from virtual performers with known truth",
+        formatter_class=RAW,
+        description="Record virtual performers crossing the stage (the recordings `jostle bench interaction`\n"
+        "makes, for other seeds), run the depth observer over them with the shoe rules alone, and keep\n"
+        "every foot it finds with the correction that would have put it at the true foot's middle. The\n"
+        "depth observer then corrects each foot by the mean of its k most similar feet\n"
+        "(interaction.shoe_model). Seeds 0, 100 and 200 are the bench's and are refused. The same seeds\n"
+        "make the same file. About 40 s of one core per seed.",
+        epilog="examples:\n"
+        "  jostle synth shoe-model --seeds 300:5000:100 --jobs 2      # the shipped model\n"
+        "  jostle synth shoe-model --seeds 300,400 --out /tmp/shoes.npz",
+    )
+    shoes.add_argument("--seeds", default="300:5000:100", metavar="A:B:STEP|A,B,…",
+                       help="bench seeds to record (default 300:5000:100, B included)")
+    shoes.add_argument("--k", type=int, default=10, help="feet averaged per correction (default 10)")
+    shoes.add_argument("--jobs", type=int, default=1, metavar="N", help="seeds recorded at once (default 1)")
+    shoes.add_argument("--out", type=Path, default=None, metavar="FILE.npz",
+                       help="where to write it (default: the shipped interaction/data/shoe_model.npz)")
+    shoes.add_argument("--json", action="store_true", help="print the summary as JSON")
+    shoes.set_defaults(func=cmd_synth_shoe_model)
+
+
+def cmd_synth_shoe_model(args: argparse.Namespace) -> int:
+    from interaction.shoe_model import default_model_path
+    from jostle.cli import UsageError
+    from jostle.progress import Progress
+    from jostle.shoe_model_fit import check_k, fit, parse_seeds
+
+    try:
+        seeds = parse_seeds(args.seeds)
+        k = check_k(args.k)
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+    if not 1 <= args.jobs <= 64:
+        raise UsageError(f"--jobs: expected 1..64, got {args.jobs}")
+    out = args.out if args.out is not None else default_model_path()
+    with Progress(len(seeds), "shoe model", "seeds") as bar:
+        def step(done: int, total: int, rows: int) -> None:
+            bar.update(1)
+
+        try:
+            summary = fit(seeds, out, k, args.jobs, step)
+        except ValueError as e:
+            raise UsageError(f"synth shoe-model: {e}") from None
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(f"shoe model: {summary['rows']} feet from {len(seeds)} seeds, k={k} -> {summary['out']}")
+    return 0
 
 
 def _size(option: str, text: str) -> tuple[int, int]:
