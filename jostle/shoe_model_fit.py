@@ -7,7 +7,7 @@ observer runs over each with the shoe rules alone (``shoe_model = false``), and 
 (:mod:`jostle.bench_truth`) gives one row: its features (:func:`interaction.shoe_model.column_features`)
 and the correction that would have put it there, along the camera's view, across it and up. The rows of
 all seeds, in seed order, are the model (:meth:`interaction.shoe_model.ShoeModel.save`); the same seeds
-make the same file.
+make the same model (the same arrays).
 
 The shipped model (``interaction/data/shoe_model.npz``) was made with seeds 300, 400, … 5000 (k = 10:
 36,253 feet, 8 min 51 s with ``--jobs 2`` here); the bench scores seeds 0 (its default), 100 and 200,

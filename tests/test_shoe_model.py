@@ -165,3 +165,23 @@ def test_rows_are_the_feet_found_with_their_corrections_and_the_same_each_time(c
     assert np.linalg.norm(c, axis=1).max() <= MATCH_M + 1e-9
     again_f, again_c = recording_rows(crossing)
     assert np.array_equal(f, np.array(again_f)) and np.array_equal(c, np.array(again_c))
+
+
+def test_without_its_file_the_observer_says_so_and_places_feet_by_the_rules(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    import interaction.shoe_model as shoe_model
+
+    monkeypatch.setattr(shoe_model, "default_model_path", lambda: tmp_path / "missing.npz")
+    shoe_model.shipped_shoe_model.cache_clear()
+    try:
+        with caplog.at_level("WARNING", logger="jostle.depth"):
+            assert shoe_model.shipped_shoe_model() is None
+        assert "no shoe model at" in caplog.text and "shoe rules alone" in caplog.text
+        (tmp_path / "missing.npz").write_bytes(b"broken")
+        shoe_model.shipped_shoe_model.cache_clear()
+        caplog.clear()
+        with caplog.at_level("WARNING", logger="jostle.depth"):
+            assert shoe_model.shipped_shoe_model() is None
+        assert "missing.npz: not a shoe model" in caplog.text
+    finally:
+        shoe_model.shipped_shoe_model.cache_clear()
