@@ -30,9 +30,10 @@ the head's and the hull's are an alpha-beta filter per track (α = 0.6, β = 0.4
 change of velocity on the first frame, 80 % on the second, 104 % on the third, at most 12 %
 overshoot), which follows a constant velocity with no lag. At the OAK's 30 fps most of a shove is
 felt within ~2 frames (≈ 67 ms) after it shows in the depth; at 15 fps twice that. Processing
-itself (frame in → contactors out) takes ≈ 2 ms of CPU per 640×400 frame on average with 1–4
-people on this machine (the busiest 4-person frames ≈ 3.5 ms; no frame builds whole-image tables
-except the first of an image size, ≈ 1 ms; work arrays are kept from frame to frame).
+itself (frame in → contactors out) takes ≈ 3 ms of CPU per 640×400 frame on average with 1–4
+people on this machine, 0.15 ms a foot of it the shoe model's (``jostle bench interaction``: depth_fps
+336, latency_ms_p99 7.7 ms; no frame builds whole-image tables except the first of an image size,
+≈ 1 ms; work arrays are kept from frame to frame).
 
 A velocity's direction is limited by the frame rate as much as by the noise: on the virtual
 performer at 15 fps, for hands (feet) moving faster than 0.5 m/s, the frame-to-frame step of their
