@@ -123,12 +123,13 @@ def test_seeds_parse_and_the_benchs_seeds_are_refused(tmp_path: Path) -> None:
 
 @pytest.fixture(scope="module")
 def crossing(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """One person walking and punching across the stage (performer seed 7: not in the shipped model)."""
+    """One person walking and kicking across the stage: performer seed 7, and a clip (kick), that the
+    shipped model's recordings (walk, punch; seeds 301–5004) never had."""
     from jostle.synth.config import DepthCameraConfig, PerformerConfig
     from jostle.synth.session import SynthSensors, record_performance
 
     path = tmp_path_factory.mktemp("shoes") / "crossing.mcap"
-    config = PerformerConfig(clips=("walk", "punch"), width=160, height=120, fps=15.0, duration_s=5.0, seed=7,
+    config = PerformerConfig(clips=("walk", "kick"), width=160, height=120, fps=15.0, duration_s=5.0, seed=7,
                              empty_s=1.0, people=1, route="crossing")
     oak = DepthCameraConfig(width=640, height=400, fps=15.0, color=False)
     record_performance(config, SynthSensors(webcam=False, oak=oak, truth=True), path)
