@@ -77,15 +77,17 @@ shoes by their share of points in their lowest 3 cm (AUC ≈ 0.9 against flat on
 those points, their area, the slope of the points ahead of the shin or where the column leaves the
 shin's line (AUC 0.6–0.8): none apart enough; leaving out of a foot's column the points nearer the
 other foot's middle (staggered feet): 0.066 (0.061) m, 0.061 (0.060) beyond a 4–8 cm margin.
-Nor is the height learnt better from the column than these rules put it: a ridge regression of the true
+Learnt from the column instead: fitted on two seeds and scored on the third, a ridge regression of the true
 middle's height on 17 features of the column (its lowest points, the percentiles of its heights over them,
 the shares under 2–16 cm, its spread across and along the view, how far its lowest points lie from the
-leg's, how far back its top is) and of its motion since the frame before (how far it moved, how its lowest
-points and its mean height changed), fitted on two seeds and scored on the third: p95 of hands and feet
-0.0617 / 0.0573 / 0.0583 m (seeds 0 / 100 / 200; the rules: 0.0603 / 0.058 / 0.0609); a k-nearest-neighbour
-regression on the same features (k 5–40, as a probe of what they hold, not something to ship): 0.055–0.058 /
-0.051–0.054 / 0.057–0.059 m. The raised feet are the misses (truth 6 cm or more over the floor: 45 of seed
-0's 86 over 5 cm): their height exactly, the rest as measured, would make it 0.048 m.
+leg's, how far back its top is) and of its motion since the frame before was no better than these rules
+(p95 of hands and feet 0.0617 / 0.0573 / 0.0583 m on seeds 0 / 100 / 200, the rules 0.0603 / 0.058 /
+0.0609), and nearest neighbours on them only a little (0.055–0.058 / 0.051–0.054 / 0.057–0.059 m). The
+raised feet are the misses (truth 6 cm or more over the floor: 45 of seed 0's 86 over 5 cm; their height
+exactly would make it 0.048 m). What did better: the shape of the column slice by slice (how wide each 3 cm
+is and where its middle lies), many more feet (from 18, then 48 other seeds), and the whole correction
+(along the view, across it and up), not the height alone: :mod:`interaction.shoe_model`, which corrects
+each foot after these rules.
 """
 
 from __future__ import annotations
