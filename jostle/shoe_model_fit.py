@@ -26,7 +26,6 @@ latency_ms_p99 6.2 → 7.7 ms).
 
 from __future__ import annotations
 
-import math
 import tempfile
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
@@ -42,6 +41,7 @@ BENCH_SEEDS = (0, 100, 200)  # what the bench scores: never made into the model
 def seed_rows(seed: int, folder: Path, duration: float = 5.0, fps: float = 15.0,
               people: tuple[int, ...] = (1, 2, 3, 4)) -> tuple[np.ndarray, np.ndarray]:
     """(features (N, FEATURES), corrections (N, 3)) of the feet found in one seed's recordings."""
+    from interaction.shoe_model import FEATURES
     from jostle.bench_interaction import _record
 
     features: list[np.ndarray] = []
@@ -53,8 +53,6 @@ def seed_rows(seed: int, folder: Path, duration: float = 5.0, fps: float = 15.0,
         features.extend(f)
         corrections.extend(c)
         path.unlink()
-    from interaction.shoe_model import FEATURES
-
     return (np.array(features, dtype=np.float64).reshape(-1, FEATURES),
             np.array(corrections, dtype=np.float64).reshape(-1, 3))
 
@@ -148,6 +146,6 @@ def parse_seeds(text: str) -> list[int]:
 
 
 def check_k(k: int) -> int:
-    if not 1 <= k <= 1000 or math.isnan(k):
+    if not 1 <= k <= 1000:
         raise ValueError(f"--k: expected a whole number 1..1000, got {k}")
     return k
