@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -114,6 +115,12 @@ def cmd_synth_shoe_model(args: argparse.Namespace) -> int:
     if not 1 <= args.jobs <= 64:
         raise UsageError(f"--jobs: expected 1..64, got {args.jobs}")
     out = args.out if args.out is not None else default_model_path()
+    try:  # found out now, not after minutes of recording
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UsageError(f"--out {out}: cannot make its folder ({e.strerror})") from None
+    if not os.access(out.parent, os.W_OK) or out.is_dir():
+        raise UsageError(f"--out {out}: cannot be written here")
     with Progress(len(seeds), "shoe model", "seeds") as bar:
         def step(done: int, total: int, rows: int) -> None:
             bar.update(1)

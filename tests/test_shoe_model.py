@@ -186,3 +186,13 @@ def test_without_its_file_the_observer_says_so_and_places_feet_by_the_rules(
         assert "missing.npz: not a shoe model" in caplog.text
     finally:
         shoe_model.shipped_shoe_model.cache_clear()
+
+
+def test_the_command_refuses_an_out_it_cannot_write_before_recording_anything(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from jostle.cli import main
+
+    assert main(["synth", "shoe-model", "--seeds", "300", "--out", str(tmp_path)]) == 2
+    assert f"--out {tmp_path}: cannot be written here" in capsys.readouterr().err
+    assert main(["synth", "shoe-model", "--seeds", "100"]) == 2
+    assert "seeds [100]: the bench scores these" in capsys.readouterr().err
