@@ -171,7 +171,8 @@ class ShoeModel:
         # The feet are split into boxes (the median of the most spread feature, again and again: the same
         # boxes on every machine) and a foot is looked for in the PROBED boxes whose middles are nearest,
         # each a product small enough that the BLAS keeps it on one thread (a product of all the feet at
-        # once is handed to several, which a busy machine turns from 0.05 into 3–7 ms: measured).
+        # once is handed to several, which a machine busy with two other processes turned from 0.05 ms into
+        # 0.3 and 7.1 ms in two runs; these took 0.06–0.13 ms there: measured).
         leaves = _boxes(scaled, np.arange(len(scaled)), LEVELS, max(4 * self.k, 64))
         order = np.concatenate(leaves)
         self._starts = np.cumsum([0] + [len(leaf) for leaf in leaves])
