@@ -207,9 +207,11 @@ class ShoeModel:
         scale = features.std(axis=0)
         scale[scale < 1e-9] = 1.0
         path.parent.mkdir(parents=True, exist_ok=True)
-        with path.open("wb") as f:
+        part = path.with_name(path.name + ".part")  # written whole, then put in place: never half a model
+        with part.open("wb") as f:
             np.savez_compressed(f, features=features.astype(np.float32), corrections=corrections.astype(np.float32),
                                 mean=mean, scale=scale, k=np.array(k), seeds=np.array(seeds, dtype=np.int64))
+        part.replace(path)
 
     def correction(self, features: np.ndarray) -> np.ndarray | None:
         """(along the view, across it, up) in metres: the mean of the ``k`` nearest feet's; None for

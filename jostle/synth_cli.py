@@ -85,8 +85,9 @@ def add(sub: Any) -> None:
         "makes, for other seeds), run the depth observer over them with the shoe rules alone, and keep\n"
         "every foot it finds with the correction that would have put it at the true foot's middle. The\n"
         "depth observer then corrects each foot by the mean of its k most similar feet\n"
-        "(interaction.shoe_model). Seeds 0, 100 and 200 are the bench's and are refused. The same seeds\n"
-        "make the same model (the same arrays). About 25 s of one core per seed.",
+        "(interaction.shoe_model). Seeds 0, 100 and 200 are the bench's: they, and seeds within 3 of them\n"
+        "(which share performers with them), are refused. The same seeds make the same model (the same\n"
+        "arrays). About 25 s of one core per seed.",
         epilog="examples:\n"
         "  jostle synth shoe-model --seeds 300:5000:100 --jobs 2      # the shipped model\n"
         "  jostle synth shoe-model --seeds 300,400 --out /tmp/shoes.npz",

@@ -94,6 +94,7 @@ def test_save_then_load_gives_the_same_corrections(tmp_path: Path) -> None:
     rng = np.random.default_rng(1)
     features, corrections = rng.normal(size=(50, FEATURES)), rng.uniform(-0.05, 0.05, (50, 3))
     ShoeModel.save(tmp_path / "m.npz", features, corrections, 3, [300])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.npz"]  # no part file left behind
     model = ShoeModel.load(tmp_path / "m.npz")
     assert len(model) == 50 and model.k == 3
     q = features[7]
@@ -117,6 +118,8 @@ def test_seeds_parse_and_the_benchs_seeds_are_refused(tmp_path: Path) -> None:
         parse_seeds("300:200:100")
     with pytest.raises(ValueError, match=r"seeds \[100\]: the bench scores these"):
         fit([100, 300], tmp_path / "m.npz", 10)
+    with pytest.raises(ValueError, match=r"seeds \[3, 197\]: the bench scores these \(or their performers\)"):
+        fit([3, 4, 197, 196], tmp_path / "m.npz", 10)  # 3 records performers 4–7, 197 records 198–201
     with pytest.raises(ValueError, match="shoe_model: expected true or false"):
         DepthObserverConfig(shoe_model="yes")  # type: ignore[arg-type]
 
