@@ -107,7 +107,7 @@ def test_the_shipped_model_is_made_from_other_seeds_than_the_benchs() -> None:
     assert model is not None and len(model) > 10000 and model.k == 10
     with np.load(default_model_path(), allow_pickle=False) as f:
         seeds = set(f["seeds"].tolist())
-    assert seeds and not seeds & set(BENCH_SEEDS)
+    assert seeds and all(abs(s - b) > 3 for s in seeds for b in BENCH_SEEDS)  # no performer shared either
 
 
 def test_seeds_parse_and_the_benchs_seeds_are_refused(tmp_path: Path) -> None:
