@@ -89,6 +89,12 @@ it at one phase), walk-offs 5 / 7 / 2 of 8; 4 steps only while a joint is within
 13.6 → 24.3 (2.5)°, pushes as before. With the limits near hard, this controller's recovery from a sideways push
 (which crosses a hip past its range) is what gives. Not kept. Nor a cap on the joints' speed (``changeDynamics``
 ``maxJointVelocity`` 12 / 20 rad/s, default 100): worst 18.5 / 134.5°, sideways minimum 60 / 80 N.
+Feet that slip sooner (their ``lateralFriction`` 0.6, 0.5, 0.4 instead of the body's 0.9: a push slides them
+instead of bending the hips over them): on 4 phases worst 13.6 / 19.7 / 16.3° and pushes up (forward minimum
+300 / 340 / 340 N, sideways 320 / 380 / 400 N), but over 8 phases at 0.6 worst 21.1° (22.4° at 0.9; 28.3° with
+its own 8 phases) and a 140 N sideways push felled it at one; with 4 / 8 physics steps per 1/240 s from the
+push on as well, worst 5.1 / 1.6°, but a forward push of 240 / 40 N and sideways 160 / 120 N felled it at
+one phase each. Not kept.
 """
 
 from __future__ import annotations
