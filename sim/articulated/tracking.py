@@ -100,6 +100,12 @@ pybullet's own sub-steps instead (``numSubSteps`` 4 / 8 from the push on: contac
 measured on one free link): worst 11.7 / 13.0°, forward minimum 220 / 220 N, sideways 300 / 280 N, walk-offs
 1 / 8 of 8 each. So it is the drive evaluated at the finer rate, not the finer constraint solve, that
 hardened the limits above. Not kept.
+With the drive at 4 steps per 1/240 s from the push on, the coronal foot placement's velocity gain
+(``cv_coronal``, 0.5) retuned (4 phases, sideways only: 0.1 / 0.2 / 0.25 / 0.3 / 0.4 / 0.6 / 0.8 → minimum
+260 / 280 / 260 / 260 / 200 / 140 / 120 N, worst 0.8 / 2.6 / 7.2 / 4.5 / 4.0 / 5.0 / 6.6°): at 0.1 / 0.15 over 8
+phases both ways, worst 4.1 / 4.3° (after pushes survived 0.7 / 4.3°), but forward minimum 200 N, sideways
+200 / 260 N, and no walk-off after a get-up (0 of 16); 0.1 / 0.2 only while staggering, walk-offs 6 / 7 of 8
+but forward 200 N, sideways 200 / 180 N (4 phases). Not kept.
 """
 
 from __future__ import annotations
