@@ -345,7 +345,7 @@ def _accept_in_window(depth_mm: np.ndarray, intrinsics: tuple[float, float, floa
     from interaction.depth_calibration import camera_points
 
     pts, vu = camera_points(depth_mm, intrinsics)
-    grey = cv2.normalize(depth_mm, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)  # type: ignore[call-overload]
+    grey = cv2.normalize(depth_mm, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)  # type: ignore[call-overload, unused-ignore]  # OpenCV 5.0 stubs reject None; 5.1 takes it
     img = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
     on = np.abs(pts @ np.array(fit.plane[:3]) + fit.plane[3]) < 0.05
     img[vu[on, 0], vu[on, 1]] = (img[vu[on, 0], vu[on, 1]] // 2 + np.array([0, 127, 0], np.uint8))

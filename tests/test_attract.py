@@ -155,7 +155,9 @@ def test_the_loop_attracts_while_the_stage_is_empty_and_plays_when_the_person_wa
     band = slice(int(180 * 0.65), int(180 * 0.9))
     diff = [float(np.abs(f[3][band].astype(int) - p[3][band].astype(int)).mean()) for f, p in zip(frames, plain, strict=True)]
     settled = [d for i, d in enumerate(diff) if i in attract and frames[i][0] - frames[attract[0]][0] > 0.5]
-    assert settled and min(settled) > 2.0  # white letters over the floor
+    # white letters over the floor; 0 where none are drawn. The text pulses: its faintest frames here differ by
+    # 2.05 with OpenCV 5.0's putText and 1.83 with 5.1's (the same scene; the letters' edges are drawn apart)
+    assert settled and min(settled) > 1.0
     assert all(d == 0.0 for i, d in enumerate(diff) if i < attract[0])  # identical before attract
     assert all(d == 0.0 for i, d in enumerate(diff) if i >= first_person)  # gone once the person is there
 
