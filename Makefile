@@ -8,6 +8,7 @@ help:
 	@echo "make demo   set up, then replay the shipped recording headless into out/demo/"
 	@echo "make test   set up, then run ruff, mypy and pytest"
 	@echo "make bench  set up, then run the benchmarks (slow)"
+	@echo "make lock   record the installed versions in constraints.txt (what setup installs)"
 
 setup:
 	@scripts/setup.sh
@@ -31,6 +32,13 @@ bench: setup
 
 clean:
 	rm -rf out .pytest_cache .mypy_cache .ruff_cache
+
+# constraints.txt: the versions setup installs. To move to newer releases: `.venv/bin/pip install -U -e '.[dev]'`,
+# then `make test`, then `make lock` to record what passed.
+.PHONY: lock
+lock:
+	{ sed -n '1,3p' constraints.txt; $(BIN)/python -m pip freeze --exclude-editable; } > constraints.txt.new
+	mv constraints.txt.new constraints.txt
 
 # Small synthetic recordings (webcam, OAK depth, pads, ground truth) that tests replay; rebuilt by the
 # command itself (tests/test_performer_fixtures.py checks the committed ones are what it builds).

@@ -54,10 +54,16 @@ if [ ! -x "$VENV/bin/python" ]; then
   }
 fi
 stamp="$VENV/.jostle-installed"
-if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
+if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ constraints.txt -nt "$stamp" ]; then
   echo "setup: installing jostle and its dependencies into $VENV (first time takes a minute)"
   "$VENV/bin/python" -m pip install -q --upgrade pip
-  "$VENV/bin/python" -m pip install -q -e '.[dev]'
+  # constraints.txt: the versions the tests last passed with (`make lock`); without them a new release
+  # of a dependency can change what a fresh machine runs
+  if ! "$VENV/bin/python" -m pip install -q -c constraints.txt -e '.[dev]'; then
+    echo "setup: the tested versions (constraints.txt) do not install here; installing the newest ones" \
+         "pyproject.toml allows instead (they may differ from what the tests last passed with)" >&2
+    "$VENV/bin/python" -m pip install -q -e '.[dev]'
+  fi
   touch "$stamp"
 fi
 
