@@ -91,8 +91,8 @@ it at one phase), walk-offs 5 / 7 / 2 of 8; 4 steps only while a joint is within
 ``maxJointVelocity`` 12 / 20 rad/s, default 100): worst 18.5 / 134.5°, sideways minimum 60 / 80 N.
 Feet that slip sooner (their ``lateralFriction`` 0.6, 0.5, 0.4 instead of the body's 0.9: a push slides them
 instead of bending the hips over them): on 4 phases worst 13.6 / 19.7 / 16.3° and pushes up (forward minimum
-300 / 340 / 340 N, sideways 320 / 380 / 400 N), but over 8 phases at 0.6 worst 21.1° (22.4° at 0.9; 28.3° with
-its own 8 phases) and sideways it kept no more than 140 N at one; with 4 / 8 physics steps per 1/240 s from
+300 / 340 / 340 N, sideways 320 / 380 / 400 N), but over 8 phases at 0.6 worst 21.1° (at 0.9: 22.4° on 4
+phases, 28.3° on 8) and sideways it kept no more than 140 N at one; with 4 / 8 physics steps per 1/240 s from
 the push on as well, worst 5.1 / 1.6°, but forward it kept no more than 240 / 40 N and sideways 160 / 120 N
 at one phase. Not kept.
 pybullet's own sub-steps instead (``numSubSteps`` 4 / 8 from the push on: contacts and limits solved at
