@@ -59,9 +59,9 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ constraints.txt -nt
   "$VENV/bin/python" -m pip install -q --upgrade pip
   # constraints.txt: the versions the tests last passed with (`make lock`); without them a new release
   # of a dependency can change what a fresh machine runs
-  if ! "$VENV/bin/python" -m pip install -q -c constraints.txt -e '.[dev]'; then
-    echo "setup: the tested versions (constraints.txt) do not install here; installing the newest ones" \
-         "pyproject.toml allows instead (they may differ from what the tests last passed with)" >&2
+  if [ ! -f constraints.txt ] || ! "$VENV/bin/python" -m pip install -q -c constraints.txt -e '.[dev]'; then
+    echo "setup: the tested versions (constraints.txt) are missing or do not install here; installing the" \
+         "newest ones pyproject.toml allows instead (they may differ from what the tests last passed with)" >&2
     "$VENV/bin/python" -m pip install -q -e '.[dev]'
   fi
   touch "$stamp"

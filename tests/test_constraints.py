@@ -35,4 +35,3 @@ def test_every_dependency_is_pinned_within_what_pyproject_allows() -> None:
         assert name in pins, f"constraints.txt: {req.name} is not pinned (run `make lock`)"
         assert req.specifier.contains(pins[name], prereleases=True), \
             f"constraints.txt: {req.name}=={pins[name]} is outside pyproject.toml's {req.specifier}"
-
