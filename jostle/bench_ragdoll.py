@@ -56,7 +56,7 @@ from jostle.ragdoll_baseline import BenchSim, baseline_slices, log
 KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
         "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")
 EXCESS_WHEN = ("unpushed", "survived", "felled", "down", "walkoff")  # joint_limit_excess_deg_<when>: module doc
-EXTRA_KEYS = ("external_assist_nm", "walkoff_success", "joint_limit_excess_deg",
+EXTRA_KEYS = ("external_assist_nm", "walkoff_success", "recovery_substeps", "joint_limit_excess_deg",
               *(f"joint_limit_excess_deg_{when}" for when in EXCESS_WHEN))  # beyond the issue's keys
 WALK_ON_S, WALK_ON_M = 6.0, 2.0  # a get-up is followed by this long, in which this far must be walked
 DOWN = ("fall", "lie", "stand_up")  # CharacterState values that count as fallen
@@ -106,6 +106,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--push-max", type=float, default=1000.0, metavar="N", help="strongest push tried")
     parser.add_argument("--after", type=float, default=3.0, metavar="S", help="watch this long after a push")
     parser.add_argument("--getup-window", type=float, default=8.0, metavar="S", help="time to stand again")
+    parser.add_argument("--recovery-substeps", type=int, default=None, metavar="N",
+                        help="physics steps per step while a character recovers from a push (default: the "
+                             "character's, 1; 8 holds the joint limits: sim.articulated.recovery)")
     parser.add_argument("--quick", action="store_true",
                         help="tiny settings for tests: 1 character, 0.5 s, 1 phase, one 600 N push")
 
@@ -125,28 +128,41 @@ def _settings(args: argparse.Namespace) -> argparse.Namespace:
             raise ValueError(f"--{name.replace('_', '-')}: expected a number > 0, got {v}")
     if not 0 <= s.push_start <= s.push_max or s.warmup < 0:
         raise ValueError(f"--push-start: expected 0 <= start <= --push-max={s.push_max}, got {s.push_start}")
+    s.spec = character_spec(s)
     return s
 
 
-def _new_character(sim: BenchSim, position: tuple[float, float]) -> Any:
-    """An articulated character (helper G1's API) on the DeepMimic skeleton, walking along +x."""
+def character_spec(args: argparse.Namespace) -> Any:
+    """The characters' spec: the default one, with ``--recovery-substeps`` when given."""
+    import dataclasses
+
+    from sim.articulated.spec import ArticulatedSpec
+
+    changes = {name: getattr(args, name) for name in ("recovery_substeps",) if getattr(args, name, None) is not None}
+    try:
+        return dataclasses.replace(ArticulatedSpec(), **changes)
+    except ValueError as e:
+        raise ValueError(f"--{str(e).split(':')[0].replace('_', '-')}: {str(e).split(':', 1)[1].strip()}") from None
+
+
+def _new_character(sim: BenchSim, position: tuple[float, float], spec: Any = None) -> Any:
+    """An articulated character (helper G1's API) on the DeepMimic skeleton, walking along +x (``spec``: the
+    default ``ArticulatedSpec`` when None)."""
     from sim.articulated.character import ArticulatedCharacter
     from sim.articulated.skeleton import deepmimic_humanoid
     from sim.articulated.spec import ArticulatedSpec
 
-    return ArticulatedCharacter(sim.client, deepmimic_humanoid(), ArticulatedSpec(), None, position, 0.0)
+    return ArticulatedCharacter(sim.client, deepmimic_humanoid(), spec or ArticulatedSpec(), None, position, 0.0)
 
 
 def _run(sim: BenchSim, chars: list[Any], steps: int, each: Callable[[int], None] | None = None) -> float:
     """Step control + physics ``steps`` times; returns the wall seconds spent in them (``each`` excluded)."""
-    import pybullet as p
+    from sim.articulated.recovery import advance
 
     spent = 0.0
     for s in range(steps):
         mark = time.perf_counter()
-        for c in chars:
-            c.step_control(sim.dt)
-        p.stepSimulation(physicsClientId=sim.client)
+        advance(sim.client, chars, sim.dt)
         spent += time.perf_counter() - mark
         if each is not None:
             each(s)
@@ -156,12 +172,12 @@ def _run(sim: BenchSim, chars: list[Any], steps: int, each: Callable[[int], None
 Walked = tuple[float, float, float, float, float]
 
 
-def walking_slices(n: int, seconds: float, slices: int) -> Generator[float, None, Walked]:
+def walking_slices(n: int, seconds: float, slices: int, spec: Any = None) -> Generator[float, None, Walked]:
     """n walkers for ``seconds``, in ``slices`` parts: yields the wall seconds of each part; returns (wall s,
     simulated s, mean tracking error deg, peak assist N, peak assist N·m)."""
     sim = BenchSim.open()
     try:
-        chars = [_new_character(sim, (0.0, 2.0 * i)) for i in range(n)]
+        chars = [_new_character(sim, (0.0, 2.0 * i), spec) for i in range(n)]
         every = max(1, round(1.0 / 30.0 / sim.dt))
         errors: list[float] = []
         states: list[str] = []
@@ -226,7 +242,7 @@ def _direction(char: Any, side: bool) -> np.ndarray:
 def _walked(s: argparse.Namespace, phase: int, worst: _Worst) -> tuple[BenchSim, Any]:
     """A fresh character walked for the warm-up plus ``phase``/``phases`` of a clip cycle."""
     sim = BenchSim.open()
-    char = _new_character(sim, (0.0, 0.0))
+    char = _new_character(sim, (0.0, 0.0), s.spec)
     cycle = float(char.walk.duration) if hasattr(char, "walk") else 1.3
     worst.when = "unpushed"
     _run(sim, [char], round((s.warmup + cycle * phase / s.phases) / sim.dt), lambda _: worst.see([char]))
@@ -303,11 +319,10 @@ def push_test(s: argparse.Namespace, side: bool,
 def _watch(sim: BenchSim, char: Any, seconds: float, worst: _Worst, settle: bool = True) -> float | None:
     """Step for ``seconds``; the time (s from now) it went down, or None if it stayed up (with ``settle``,
     a fall is followed to the end of ``seconds``; without, the watch stops there)."""
-    import pybullet as p
+    from sim.articulated.recovery import advance
 
     for s in range(round(seconds / sim.dt)):
-        char.step_control(sim.dt)
-        p.stepSimulation(physicsClientId=sim.client)
+        advance(sim.client, [char], sim.dt)
         worst.see([char])
         if str(char.state) in DOWN:
             if settle:
@@ -328,13 +343,12 @@ def _walks_on(sim: BenchSim, char: Any, worst: _Worst) -> bool:
 
 def _stands_again(sim: BenchSim, char: Any, seconds: float, worst: _Worst) -> bool:
     """Whether it is walking again within ``seconds`` more."""
-    import pybullet as p
+    from sim.articulated.recovery import advance
 
     for _ in range(max(0, round(seconds / sim.dt))):
         if str(char.state) == "walk":
             return True
-        char.step_control(sim.dt)
-        p.stepSimulation(physicsClientId=sim.client)
+        advance(sim.client, [char], sim.dt)
         worst.see([char])
     return str(char.state) == "walk"
 
@@ -349,7 +363,7 @@ def run(args: argparse.Namespace) -> dict[str, object]:
     hz = 1.0 / WorldConfig().physics_dt
     worst = _Worst()
     slices = max(1, math.ceil(s.seconds / SLICE_S))
-    (_, walked), (base, _) = interleaved([walking_slices(s.characters, s.seconds, slices),
+    (_, walked), (base, _) = interleaved([walking_slices(s.characters, s.seconds, slices, s.spec),
                                           baseline_slices(s.characters, s.seconds, slices)])
     wall, simulated, error, assist_n, assist_nm = walked
     forward, per_fwd, up_fwd, on_fwd, peak_fwd = push_test(s, side=False, worst=worst)
@@ -372,6 +386,7 @@ def run(args: argparse.Namespace) -> dict[str, object]:
         "external_assist_n": round(assist_n, 1),
         "external_assist_nm": round(assist_nm, 1),
         "walkoff_success": round(sum(walkoffs) / len(walkoffs), 3) if walkoffs else None,
+        "recovery_substeps": s.spec.recovery_substeps,
         "joint_limit_excess_deg": round(math.degrees(worst.rad), 2),
         **{f"joint_limit_excess_deg_{when}": round(math.degrees(rad), 2) for when, rad in worst.by_when.items()},
     }

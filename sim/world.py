@@ -252,6 +252,27 @@ class World:
             self._pushes.append(Push(row, imp.force, axis_offset(crowd, row, imp.position[2]), imp.duration,
                                      imp.duration, now))
 
+    def _physics_step(self, pad_forces: list[tuple[int, Vec3, Vec3]], dt: float, t_sub: float,
+                      touched: set[int]) -> None:
+        """One ``stepSimulation`` of ``dt`` (pads re-applied before it), then the people's contact forces."""
+        client, crowd = self._require_open(), self._crowd
+        for body, force, at in pad_forces:
+            p.applyExternalForce(body, -1, force, at, p.WORLD_FRAME, physicsClientId=client)
+        if self.articulated.characters:
+            self.articulated.before_physics_step(dt)
+        p.stepSimulation(physicsClientId=client)
+        if not self._pool.active:
+            return
+        for (name, person), f in self._pool.read_forces(self._by_body).items():
+            self._episodes.add(t_sub, name, person, f, dt)
+            row = crowd.index[name]
+            crowd.contact_force[row] = max(crowd.contact_force[row], f)
+            touched.add(row)
+        if self.articulated.characters:
+            for (name, person), f in self._pool.read_forces(self.articulated.bodies).items():
+                self._episodes.add(t_sub, name, person, f, dt)
+                self.articulated.contact_force(name, f)
+
     # ------------------------------------------------------------------ one control tick
     def _tick(self, events: list[ContactEvent], changes: list[StateChange]) -> None:
         client = self._require_open()
@@ -265,25 +286,17 @@ class World:
             self.quadrupeds.tick(t0, cfg.control_dt, contactors, crowd.pos[:, :2], crowd.names)
         touched = {push.row for push in self._pushes}  # every queued push acts in this tick
         pad_forces = tick_forces(self._pushes, crowd, cfg.control_dt, cfg.max_impulse_force_n)
-        dt = cfg.physics_dt
         start = time.perf_counter()
         for k in range(self._n_sub):
-            for body, force, at in pad_forces:
-                p.applyExternalForce(body, -1, force, at, p.WORLD_FRAME, physicsClientId=client)
-            if self.articulated.characters:
-                self.articulated.before_physics_step(dt)
-            p.stepSimulation(physicsClientId=client)
-            if self._pool.active:
-                t_sub = t0 + (k + 1) * dt
-                for (name, person), f in self._pool.read_forces(self._by_body).items():
-                    self._episodes.add(t_sub, name, person, f, dt)
-                    row = crowd.index[name]
-                    crowd.contact_force[row] = max(crowd.contact_force[row], f)
-                    touched.add(row)
-                if self.articulated.characters:
-                    for (name, person), f in self._pool.read_forces(self.articulated.bodies).items():
-                        self._episodes.add(t_sub, name, person, f, dt)
-                        self.articulated.contact_force(name, f)
+            # a recovering articulated character asks for finer steps (sim.articulated.recovery): all bodies take them
+            fine = self.articulated.substeps() if self.articulated.characters else 1
+            if fine > 1:
+                p.setPhysicsEngineParameter(fixedTimeStep=cfg.physics_dt / fine, physicsClientId=client)
+            for j in range(fine):
+                self._physics_step(pad_forces, cfg.physics_dt / fine, t0 + (k + (j + 1) / fine) * cfg.physics_dt,
+                                   touched)
+            if fine > 1:
+                p.setPhysicsEngineParameter(fixedTimeStep=cfg.physics_dt, physicsClientId=client)
         self.physics_wall_s += time.perf_counter() - start
         self._ticks += 1
         if self.articulated.characters:

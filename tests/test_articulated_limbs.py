@@ -15,6 +15,7 @@ import pytest
 
 from sim.articulated import balance as bal
 from sim.articulated.character import ArticulatedCharacter
+from sim.articulated.recovery import advance
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
 from sim.snapshot import CharacterState
@@ -32,9 +33,7 @@ def twins(client: int, skeleton: ArticulatedSkeleton, n: int) -> list[Articulate
 
 
 def step(client: int, chars: list[ArticulatedCharacter]) -> None:
-    for ch in chars:
-        ch.step_control(DT)
-    p.stepSimulation(physicsClientId=client)
+    advance(client, chars, DT)
 
 
 def chest_heading(ch: ArticulatedCharacter) -> float:

@@ -16,6 +16,7 @@ from sim.articulated import balance as bal
 from sim.articulated.build import urdf_text
 from sim.articulated.character import ArticulatedCharacter
 from sim.articulated.joint_limit import clamp_inside, limit_angles, limit_angles_one, limit_excess
+from sim.articulated.recovery import advance
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
 from sim.snapshot import CharacterState
@@ -42,8 +43,7 @@ def test_limits_hold_through_a_walk_a_push_a_fall_and_a_get_up(client: int, skel
         if i == int(1.0 / DT):  # a 0.2 s push on the pelvis, 600 N: it falls
             h = bal.heading_of(ch.root()[1])
             ch.push("root", (force * math.cos(h), force * math.sin(h), 0.0), 0.2)
-        ch.step_control(DT)
-        p.stepSimulation(physicsClientId=client)
+        advance(client, [ch], DT)
         e = ch.tracker.limits.excess(ch.joint_angles())
         assert np.isfinite(e).all()
         assert ch.limit_excess() == pytest.approx(float(e.max()), abs=1e-9)  # the float path, joint by joint

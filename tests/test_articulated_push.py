@@ -12,6 +12,7 @@ import pybullet as p
 from interaction.types import BodyObservation, Contactor
 from sim.articulated import balance as bal
 from sim.articulated.character import ArticulatedCharacter
+from sim.articulated.recovery import advance
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
 from sim.config import WorldConfig
@@ -34,8 +35,7 @@ def run(client: int, ch: ArticulatedCharacter, seconds: float, push_at: float | 
             f = (force[0] * math.cos(h) - force[1] * math.sin(h), force[0] * math.sin(h) + force[1] * math.cos(h),
                  force[2])
             ch.push("root", f, 0.2)
-        ch.step_control(DT)
-        p.stepSimulation(physicsClientId=client)
+        advance(client, [ch], DT)
         if i % 12 == 11:
             out.append((ch.t, ch.state, ch.com_state()[0]))
     return out
@@ -49,9 +49,7 @@ def test_small_push_changes_the_motion_and_it_returns_to_the_clip(client: int, s
     for i in range(int(6.0 / DT)):
         if i == int(2.0 / DT):
             pushed.push("root", (150.0, 0.0, 0.0), 0.2)  # 30 N·s forward
-        for ch in (quiet, pushed):
-            ch.step_control(DT)
-        p.stepSimulation(physicsClientId=client)
+        advance(client, [quiet, pushed], DT)
         if i % 12 == 11:
             trace_q.append((quiet.state, quiet.com_state()[0]))
             trace_p.append((pushed.state, pushed.com_state()[0], pushed.tracking_error_deg()))

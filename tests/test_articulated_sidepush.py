@@ -9,11 +9,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pybullet as p
 import pytest
 
 from sim.articulated import balance as bal
 from sim.articulated.character import ArticulatedCharacter
+from sim.articulated.recovery import advance
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
 from sim.snapshot import CharacterState
@@ -26,8 +26,7 @@ STIFF_FREE = ArticulatedSpec(stagger_hurry=0.0, stagger_stance_hip_gain=1.0)  # 
 
 
 def _step(client: int, ch: ArticulatedCharacter) -> None:
-    ch.step_control(DT)
-    p.stepSimulation(physicsClientId=client)
+    advance(client, [ch], DT)
 
 
 @pytest.mark.parametrize(("walk_s", "to_left"), [(2.0, True), (2.0 + CYCLE_S / 2, False)])

@@ -8,6 +8,7 @@ import numpy as np
 import pybullet as p
 
 from sim.articulated.character import ArticulatedCharacter
+from sim.articulated.recovery import advance
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
 from sim.config import WorldConfig
@@ -23,8 +24,7 @@ def walk(client: int, skeleton: ArticulatedSkeleton, seconds: float, spec: Artic
     ch = ArticulatedCharacter(client, skeleton, spec or ArticulatedSpec(), None, (0.0, 0.0), heading)
     trace: dict[str, list[float]] = {"error": [], "excess": [], "x": [], "y": [], "up": []}
     for i in range(int(round(seconds / DT))):
-        ch.step_control(DT)
-        p.stepSimulation(physicsClientId=client)
+        advance(client, [ch], DT)
         excess = ch.tracker.limits.excess(ch.joint_angles())  # every physics step
         trace["excess"].append(float(excess.max()))
         if i % 12 == 11:
@@ -68,8 +68,7 @@ def test_same_inputs_same_trace(skeleton: ArticulatedSkeleton) -> None:
             ch, trace = walk(c, skeleton, 1.5)
             ch.push("chest", (0.0, 150.0, 0.0), 0.2)
             for _ in range(120):
-                ch.step_control(DT)
-                p.stepSimulation(physicsClientId=c)
+                advance(c, [ch], DT)
             runs.append((trace, [lp.position for lp in ch.link_poses()]))
         finally:
             p.disconnect(c)
@@ -92,8 +91,7 @@ def test_stable_pd_tracks_better_than_explicit_pd_at_the_seed_gains(skeleton: Ar
                                childFrameOrientation=orn.tolist(), physicsClientId=c)
             err = []
             for i in range(240):
-                ch.step_control(DT)
-                p.stepSimulation(physicsClientId=c)
+                advance(c, [ch], DT)
                 if i % 12 == 11:
                     err.append(ch.tracking_error_deg())
             errors[pd] = float(np.mean(err))
@@ -117,8 +115,7 @@ def test_steering_turns_the_walk(client: int, skeleton: ArticulatedSkeleton) -> 
     ch = ArticulatedCharacter(client, skeleton, ArticulatedSpec(), None, (0.0, 0.0), 0.0)
     ch.steer(math.pi / 2)
     for _ in range(int(4.0 / DT)):
-        ch.step_control(DT)
-        p.stepSimulation(physicsClientId=client)
+        advance(client, [ch], DT)
     _, orn = ch.root()
     assert ch.falls == 0
     assert abs(math.remainder(bal.heading_of(orn) - math.pi / 2, math.tau)) < 0.5

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
-import pybullet as p
 import pytest
 
 from sim.articulated import balance as bal
 from sim.articulated.character import ArticulatedCharacter
+from sim.articulated.recovery import advance
 from sim.articulated.skeleton import deepmimic_humanoid
 from sim.articulated.spec import ArticulatedSpec
 from sim.snapshot import CharacterState
@@ -18,8 +18,7 @@ DOWN = (CharacterState.FALL, CharacterState.LIE, CharacterState.STAND_UP)
 
 def _until(client: int, ch: ArticulatedCharacter, seconds: float, done: list[CharacterState]) -> bool:
     for _ in range(int(round(seconds / DT))):
-        ch.step_control(DT)
-        p.stepSimulation(physicsClientId=client)
+        advance(client, [ch], DT)
         if ch.state in done:
             return True
     return False

@@ -223,6 +223,7 @@ def test_cmu_like_hierarchy_folds_fixed_joints_and_keeps_every_moving_links_turn
 def test_a_bvh_body_tracks_its_clip_under_pd_control(tmp_path: Path) -> None:
     """The whole chain: BVH → body + clip → sim.articulated's PD-tracked character in pybullet."""
     from sim.articulated.character import ArticulatedCharacter
+    from sim.articulated.recovery import advance
     from sim.articulated.spec import ArticulatedSpec
     from sim.config import WorldConfig
     from sim.physics import open_client
@@ -237,8 +238,7 @@ def test_a_bvh_body_tracks_its_clip_under_pd_control(tmp_path: Path) -> None:
         start, _ = ch.root()
         errors = []
         for s in range(120):  # 0.5 s
-            ch.step_control(cfg.physics_dt)
-            p.stepSimulation(physicsClientId=client)
+            advance(client, [ch], cfg.physics_dt)
             if s % 8 == 7:
                 errors.append(ch.tracking_error_deg())
         end, _ = ch.root()

@@ -4,19 +4,22 @@ go back to their motion. A second character kind on ``World`` beside the Mitake 
 Modules: ``skeleton`` (``ArticulatedSkeleton``: links, joints, limits, masses; ``deepmimic_humanoid()``),
 ``build`` (``build_multibody``), ``reference`` (``MotionReference``: desired angles and velocities from a
 clip), ``tracking`` (explicit and stable PD, joint limits), ``balance`` (SIMBICON pieces), ``assist``
-(bounded root help), ``character`` (``ArticulatedCharacter``), ``troupe`` (``World``'s hook), ``spec``
-(``ArticulatedSpec``, TOML ``configs/characters/ragdoll.toml``).
+(bounded root help), ``recovery`` (finer steps after a push; ``advance``), ``character``
+(``ArticulatedCharacter``), ``troupe`` (``World``'s hook), ``spec`` (``ArticulatedSpec``, TOML
+``configs/characters/ragdoll.toml``).
 
 Public API (what benchmarks and tests use)::
 
     from sim.articulated.character import ArticulatedCharacter
+    from sim.articulated.recovery import advance
     from sim.articulated.skeleton import deepmimic_humanoid
     from sim.articulated.spec import ArticulatedSpec
 
     ch = ArticulatedCharacter(client, deepmimic_humanoid(), ArticulatedSpec(), clip=None,
                               position=(x, y), heading=yaw)   # clip None: spec.walk_clip
     for each physics step:
-        ch.step_control(physics_dt); p.stepSimulation(physicsClientId=client)
+        advance(client, [ch, ...], physics_dt)  # sim.articulated.recovery: control + stepSimulation, split
+                                                # into ch.wanted_substeps while one recovers from a push
     ch.push(link, force_xyz, duration)      # link: skeleton index or name ("root" is the pelvis)
     ch.state                                # sim.snapshot.CharacterState
     ch.tracking_error_deg()                 # mean |angle| between driven joints and the clip, now

@@ -4,7 +4,7 @@ Call ``step_control(dt)`` before every physics step (pybullet clears joint torqu
 after each ``stepSimulation``). The state machine (``sim.snapshot.CharacterState``):
 
     WALK ──push / load ≥ stagger_load──▶ STAGGER ──load < recover_load for recover_hold_s──▶ WALK
-    WALK, STAGGER ──pelvis tilt ≥ fall_tilt_deg or root below fall_height──▶ FALL (limp: ragdoll_gain)
+    WALK, STAGGER ──pelvis tilt ≥ fall_tilt_deg, root below fall_height or load ≥ fall_load──▶ FALL (limp: ragdoll_gain)
     FALL ──still for still_hold_s──▶ LIE ──lie_duration_s──▶ STAND_UP (getup_faceup / getup_facedown)
     STAND_UP ──clip done, upright──▶ WALK        STAND_UP ──tilted over or getup_timeout_s──▶ FALL
 
@@ -35,6 +35,7 @@ from sim.articulated import quat1 as q1
 from sim.articulated.build import build_multibody, source_to_stage
 from sim.articulated.pushes import LinkPushes
 from sim.articulated.readout import BodyReadout
+from sim.articulated.recovery import Recovery, recovering_spec
 from sim.articulated.reference import MotionReference, ReferencePose
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
@@ -65,6 +66,8 @@ class ArticulatedCharacter:
         self.client = client
         self.skeleton = skeleton
         self.spec = spec
+        self._recovering_spec = recovering_spec(spec)  # balance gains while recovering
+        self.recovery = Recovery(spec)
         self._up = source_to_stage(skeleton)
         self.walk = MotionReference(clip or MotionClip.load(pybullet_motion_path(spec.walk_clip)), skeleton)
         self.ref = self.walk
@@ -72,6 +75,7 @@ class ArticulatedCharacter:
         self._feet = (skeleton.foot("right"), skeleton.foot("left")) if any(x.foot for x in skeleton.links) else None
         self._hips = tuple(skeleton.index(n) for n in ("right_hip", "left_hip"))
         self._drv_pos = {link: k for k, link in enumerate(self.driven)}
+        self._neck = [k for k, link in enumerate(self.driven) if skeleton.links[link].gain_group == "neck"]
         r0 = self.walk.sample(0.0)
         self._anchor_yaw = heading - bal.heading_of(q1.mul(self._up, r0.root_rot))
         orn = self._stage_root_rot(r0)
@@ -164,12 +168,29 @@ class ArticulatedCharacter:
         i = self.skeleton.index(link) if isinstance(link, str) else int(link)
         f = np.asarray(force, dtype=float)
         self._pushes.add(i, f, float(duration))
+        self.touched()
         if float(np.linalg.norm(f)) * duration >= self.spec.push_threshold_ns:
             self._enter(CharacterState.STAGGER, only_from=(CharacterState.WALK,))
 
     def staggered(self) -> None:
         """Someone pushed it (a contact episode that was a push): WALK → STAGGER."""
+        self.touched()
         self._enter(CharacterState.STAGGER, only_from=(CharacterState.WALK,))
+
+    def touched(self) -> None:
+        """Something pushes it now (a push, a person's contact): recover at finer steps
+        (``sim.articulated.recovery``)."""
+        self.recovery.begin()
+
+    @property
+    def _gains(self) -> ArticulatedSpec:
+        """The spec balance and assist use now: the recovery's gains while recovering."""
+        return self._recovering_spec if self.recovery.active else self.spec
+
+    @property
+    def wanted_substeps(self) -> int:
+        """Physics steps per world step it needs now: ``spec.recovery_substeps`` while recovering, else 1."""
+        return self.recovery.wanted_substeps
 
     def nearest_link(self, at: tuple[float, float, float]) -> int:
         """The link whose centre of mass is nearest the stage point ``at``."""
@@ -186,6 +207,7 @@ class ArticulatedCharacter:
         self._hold_t = 0.0
         if state == CharacterState.FALL:
             self.falls += 1
+            self.touched()  # however it came to fall: its fall and get-up at finer steps
         if state == CharacterState.STAND_UP:
             _, orn = self.root()
             self.getup_face_up = bal.face_up(orn)
@@ -231,6 +253,10 @@ class ArticulatedCharacter:
             self._update(self._since)
             self._since = 0.0
         assert self._cmd is not None
+        if self.recovery.active:
+            steady = (self.state in (CharacterState.WALK, CharacterState.STAGGER) and not self._pushes
+                      and self._walk_in() >= 1.0)  # upright, unpushed, not walking off from a stand
+            self.recovery.update(steady, dt)
         self.tracker.issue(self._cmd)
         c = self.client
         for link, torque in self._torques:
@@ -280,6 +306,8 @@ class ArticulatedCharacter:
         omegas = r.omegas * self._rate  # the clip plays at _rate: so do its joint velocities
         if self.state in (CharacterState.FALL, CharacterState.LIE):
             scale *= self.spec.ragdoll_gain
+            if self.recovery.active:  # the head braced: limp, a face-down landing bent the neck 10° past its limit
+                scale[self._neck] = self.spec.recovery_neck_gain
         self._cmd = self.tracker.command(targets, omegas, scale)
         self._assist(r, root, orn, omega_a, desired_root)
         self._update_state(root, orn, dt)
@@ -303,7 +331,7 @@ class ArticulatedCharacter:
 
     def _balance(self, r: ReferencePose, root: np.ndarray, orn: np.ndarray, omega: np.ndarray,
                  desired_root: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        s = self.spec
+        s = self._gains
         assert self._feet is not None
         right_on, left_on = self._foot_contacts()
         stance_left = left_on if right_on != left_on else r.stance_left  # the ground decides when it can
@@ -356,7 +384,7 @@ class ArticulatedCharacter:
         if self.state == CharacterState.STAND_UP and self.getup_face_up and self._feet is not None:
             rising = getup.root_offset(self.readout, self._feet, r, desired_root, self.spec.getup_place_tilt_deg)
         torque, force = assist.root_help(
-            self.spec, self.state, self._walk_in() < 1.0, self._feet is not None, desired_root, orn, omega,
+            self._gains, self.state, self._walk_in() < 1.0, self._feet is not None, desired_root, orn, omega,
             self._dd, self._dv, self._heading, (float(q1.rot(self._up, r.root_pos)[2]), float(root[2]), float(vel[2])),
             rising, bool(self.getup_face_up))
         if torque is not None:
@@ -370,6 +398,6 @@ class ArticulatedCharacter:
         vel, _ = self.readout.base_velocity()
         readings = Readings(math.degrees(bal.tilt_of(orn)), float(root[2]), self.load, bool(self._pushes),
                             float(np.linalg.norm(vel)), self._state_t, self._clip_t, self.ref.duration)
-        after, self._hold_t = next_state(self.state, readings, self.spec, self._hold_t, dt)
+        after, self._hold_t = next_state(self.state, readings, self._gains, self._hold_t, dt)
         if after != self.state:
             self._enter(after)

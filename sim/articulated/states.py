@@ -30,7 +30,7 @@ def next_state(state: CharacterState, r: Readings, spec: ArticulatedSpec, hold_s
     """(the state to be in, the new hold timer) — ``hold_s`` counts how long a leaving condition has held."""
     s = spec
     if state in (S.WALK, S.STAGGER):
-        if r.tilt_deg >= s.fall_tilt_deg or r.root_z < s.fall_height:
+        if r.tilt_deg >= s.fall_tilt_deg or r.root_z < s.fall_height or (s.fall_load > 0 and r.load >= s.fall_load):
             return S.FALL, 0.0
         if state == S.WALK:
             return (S.STAGGER, 0.0) if r.load >= s.stagger_load else (state, 0.0)

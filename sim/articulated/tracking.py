@@ -106,6 +106,10 @@ With the drive at 4 steps per 1/240 s from the push on, the coronal foot placeme
 phases both ways, worst 4.1 / 4.3° (after pushes survived 0.7 / 4.3°), but forward minimum 200 N, sideways
 200 / 260 N, and no walk-off after a get-up (0 of 16); 0.1 / 0.2 only while staggering, walk-offs 6 / 7 of 8
 but forward 200 N, sideways 200 / 180 N (4 phases). Not kept.
+What is kept, off by default (``sim.articulated.recovery``, ``recovery_substeps``): 8 steps per 1/240 s from a
+push, a contact or a fall on, with the recovery's own balance gains (placement ``cv_sagittal`` 0.6,
+``cv_coronal`` 0.2, pelvis torque limit 200 N·m), a give-up balance load (1.25) and the neck held while falling;
+that module has its figures and its weaknesses.
 """
 
 from __future__ import annotations

@@ -17,6 +17,7 @@ import pybullet as p
 
 from sim.articulated import balance as bal
 from sim.articulated.character import ArticulatedCharacter
+from sim.articulated.recovery import substeps_of
 from sim.articulated.skeleton import ArticulatedSkeleton, deepmimic_humanoid
 from sim.articulated.spec import ArticulatedSpec
 from sim.snapshot import CharacterSnapshot, CharacterState, ContactEvent, StateChange
@@ -73,8 +74,15 @@ class ArticulatedCharacters:
             self._force[name] = max(self._force[name], ch.last_push_force_n)
 
     def contact_force(self, name: str, force: float) -> None:
-        """A person's contact force on ``name`` during a substep (for the snapshot's contact_force_n)."""
+        """A person's contact force on ``name`` during a substep (for the snapshot's contact_force_n); a
+        touch starts its recovery (finer steps, ``sim.articulated.recovery``)."""
         self._force[name] = max(self._force[name], force)
+        if force > 0.0:
+            self.characters[name].touched()
+
+    def substeps(self) -> int:
+        """Physics steps per world step the characters need now (``sim.articulated.recovery``)."""
+        return substeps_of(list(self.characters.values()))
 
     def notice(self, event: ContactEvent) -> None:
         """A contact episode ended: a push makes the character stagger."""

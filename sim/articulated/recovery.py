@@ -1,0 +1,117 @@
+"""Recovering from a push: finer physics steps and the recovery's balance gains, until it is steady again.
+
+pybullet holds joint limits with soft constraint rows (``sim.articulated.tracking``): at the world's 1/240 s a
+push carries a hip 10–20° past its range. The joint drive evaluated at a finer step holds the joints inside
+(pybullet's own ``numSubSteps``, which holds the drive's torques between sub-steps, does not: measured). So,
+when ``spec.recovery_substeps`` > 1 (off by default), from a push, a person's contact or a fall on a
+character asks for that many physics steps per world step (``wanted_substeps``), and whoever steps the
+world (``sim.world.World``, ``jostle bench ragdoll``, tests: ``advance``) steps every body that finely
+while any character asks. At the finer step the body is stiffer and the walking gains no longer balance
+it, so while recovering it uses ``recovering_spec``: foot placement's velocity gains
+``recovery_cv_sagittal`` / ``recovery_cv_coronal``, the pelvis torque limit
+``recovery_assist_torque_max_nm``, and ``recovery_fall_load`` (beyond that balance load it gives up and
+falls: without it, recovering at 8 substeps, it took forward pushes of 500–1000 N, where DeepMimic's policy
+takes 240); falling or lying, its neck keeps ``recovery_neck_gain`` of its gains (limp, a face-down landing
+bent the neck 10.5° past its limit). It goes back to the world's step once it has been upright (walking
+or staggering), unpushed and not walking off from a stand for ``recovery_settle_s``.
+
+Measured, ``jostle bench ragdoll --recovery-substeps 8`` (the default run's figures in brackets):
+- 4 phases: joints at most 2.1° past a limit (22.4°): unpushed 0, after pushes survived 1.1, felled 1.5,
+  fallen 2.1, walking off 0.04°; pushes survived forward 460 N (280), sideways 400 N (300); get-ups 8 of 8,
+  walk-offs 8 of 8 (7 of 8); largest assist 300 N (285: the get-up's lift at its bound) and 300 N·m (300).
+- 8 phases: 6.6° (28.3°), all of it in one fall (a forward give-up fall, a hip 0.4 s into it; the rest at most
+  3.4°); pushes 460 / 400 N (220 / 300); get-ups 16 of 16, walk-offs 16 of 16.
+The walk before a push runs at the world's step: ``cost_ratio_vs_baseline`` (unpushed walking) is unchanged.
+Tried and not kept: 16 substeps (with these gains: 9.2° while staggering, 3.7° falling); falls braced
+(every joint at 0.5 / 0.3 of its gains while falling: 0.0 / 0.5° fallen, but 0 / 6 of 8 get-ups, the body
+never lying still; braced for the first 0.6 s only: 3.1 / 4.1°); ``recovery_cv_sagittal`` 0.4 / 0.45 / 0.5 to
+make the staggering gait settle sooner (one run each: 0.4 settled, 0.45 and 0.5 did not).
+
+Weak, and why it is off by default:
+- Cost: while any character recovers, every body's physics is stepped 8 times; 4 characters walking, one of
+  them recovering: 3.4–4.2× the wall time (measured; realtime factor 0.7 while two benches ran beside it).
+- Going back to the world's step is a jolt: the body is stiffer at the finer step and the gains change with
+  it. Of four runs (300 N sideways at two phases, 240 N forward, 700 N forward with a fall and a get-up),
+  one fell some seconds after going back (4.6° past a limit before the fall made it recover again); the other
+  three walked on. Staying at the finer step until it walks (not staggers) steadily kept 3 of 4 at the
+  finer step for good: staggering at the finer step, its gait runs ahead of the clip.
+- Other articulated characters in the same world step finely with their walking gains meanwhile (not
+  measured), and the tests that pin the default behaviour (which push fells it, how it lands) are not
+  re-measured with recovery on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from typing import Protocol
+
+import pybullet as p
+
+from sim.articulated.spec import ArticulatedSpec
+
+
+def recovering_spec(spec: ArticulatedSpec) -> ArticulatedSpec:
+    """``spec`` with the recovery's balance gains in place of the walking ones."""
+    return dataclasses.replace(spec, cv_sagittal=spec.recovery_cv_sagittal, cv_coronal=spec.recovery_cv_coronal,
+                               assist_torque_max_nm=spec.recovery_assist_torque_max_nm,
+                               fall_load=spec.recovery_fall_load)
+
+
+class Recovery:
+    """Whether a character is recovering (finer steps, recovery gains), and for how long it has walked since."""
+
+    def __init__(self, spec: ArticulatedSpec) -> None:
+        self.substeps = int(spec.recovery_substeps)
+        self.settle_s = float(spec.recovery_settle_s)
+        self.active = False
+        self._steady_s = 0.0
+
+    def begin(self) -> None:
+        """Pushed, touched or staggering: recover (again) from now."""
+        if self.substeps > 1:
+            self.active = True
+        self._steady_s = 0.0
+
+    def update(self, steady: bool, dt: float) -> None:
+        """``steady``: walking, unpushed, not staggering, not walking off from a stand. Settled after
+        ``settle_s`` of that in a row."""
+        if not self.active:
+            return
+        self._steady_s = self._steady_s + dt if steady else 0.0
+        if self._steady_s >= self.settle_s - 1e-9:  # (steps of dt summed)
+            self.active = False
+            self._steady_s = 0.0
+
+    @property
+    def wanted_substeps(self) -> int:
+        return self.substeps if self.active else 1
+
+
+class Stepped(Protocol):
+    client: int
+
+    @property
+    def wanted_substeps(self) -> int: ...
+
+    def step_control(self, dt: float) -> None: ...
+
+
+def substeps_of(characters: Sequence[Stepped]) -> int:
+    """Physics steps per step the world should take now: the most any character asks for (1: none)."""
+    return max((c.wanted_substeps for c in characters), default=1)
+
+
+def advance(client: int, characters: Sequence[Stepped], dt: float) -> int:
+    """One physics step of ``dt`` for ``characters`` (all in ``client``): their control and pybullet's step,
+    split into ``substeps_of(characters)`` equal steps. Returns that number."""
+    n = substeps_of(characters)
+    if n > 1:
+        p.setPhysicsEngineParameter(fixedTimeStep=dt / n, physicsClientId=client)
+    for _ in range(n):
+        for c in characters:
+            c.step_control(dt / n)
+        p.stepSimulation(physicsClientId=client)
+    if n > 1:
+        p.setPhysicsEngineParameter(fixedTimeStep=dt, physicsClientId=client)
+    return n
