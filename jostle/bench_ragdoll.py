@@ -37,6 +37,10 @@ In one process, on the world's physics settings (``sim.physics.open_client``, 1/
    upright after a push that then felled it (up to the fall); fallen (falling, lying, getting up); walking
    off after a get-up.
 
+7. with ``--recovery-substeps`` N > 1 (``sim.articulated.recovery``: physics N times finer while a character
+   recovers from a push), ``recovery_cost_ratio``: the walkers of step 1 with one of them kept recovering,
+   wall time over step 1's (a third run in the same turns); None when recovery is off.
+
 Details (per phase, the baseline's fall time) go to stderr; the figures are the keys above.
 """
 
@@ -56,7 +60,8 @@ from jostle.ragdoll_baseline import BenchSim, baseline_slices, log
 KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
         "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")
 EXCESS_WHEN = ("unpushed", "survived", "felled", "down", "walkoff")  # joint_limit_excess_deg_<when>: module doc
-EXTRA_KEYS = ("external_assist_nm", "walkoff_success", "recovery_substeps", "joint_limit_excess_deg",
+EXTRA_KEYS = ("external_assist_nm", "walkoff_success", "recovery_substeps", "recovery_cost_ratio",
+              "joint_limit_excess_deg",
               *(f"joint_limit_excess_deg_{when}" for when in EXCESS_WHEN))  # beyond the issue's keys
 WALK_ON_S, WALK_ON_M = 6.0, 2.0  # a get-up is followed by this long, in which this far must be walked
 DOWN = ("fall", "lie", "stand_up")  # CharacterState values that count as fallen
@@ -172,9 +177,11 @@ def _run(sim: BenchSim, chars: list[Any], steps: int, each: Callable[[int], None
 Walked = tuple[float, float, float, float, float]
 
 
-def walking_slices(n: int, seconds: float, slices: int, spec: Any = None) -> Generator[float, None, Walked]:
+def walking_slices(n: int, seconds: float, slices: int, spec: Any = None,
+                   recovering: bool = False) -> Generator[float, None, Walked]:
     """n walkers for ``seconds``, in ``slices`` parts: yields the wall seconds of each part; returns (wall s,
-    simulated s, mean tracking error deg, peak assist N, peak assist N·m)."""
+    simulated s, mean tracking error deg, peak assist N, peak assist N·m). With ``recovering`` the first
+    walker is kept recovering from a push (``sim.articulated.recovery``): the world steps finely throughout."""
     sim = BenchSim.open()
     try:
         chars = [_new_character(sim, (0.0, 2.0 * i), spec) for i in range(n)]
@@ -186,6 +193,8 @@ def walking_slices(n: int, seconds: float, slices: int, spec: Any = None) -> Gen
 
         def sample(_: int) -> None:
             nonlocal stepped
+            if recovering:
+                chars[0].touched()
             if stepped % every == 0:
                 states.extend(str(c.state) for c in chars)
                 errors.extend(c.tracking_error_deg() for c in chars if str(c.state) in ("walk", "stagger"))
@@ -363,8 +372,11 @@ def run(args: argparse.Namespace) -> dict[str, object]:
     hz = 1.0 / WorldConfig().physics_dt
     worst = _Worst()
     slices = max(1, math.ceil(s.seconds / SLICE_S))
-    (_, walked), (base, _) = interleaved([walking_slices(s.characters, s.seconds, slices, s.spec),
-                                          baseline_slices(s.characters, s.seconds, slices)])
+    runs = [walking_slices(s.characters, s.seconds, slices, s.spec), baseline_slices(s.characters, s.seconds, slices)]
+    if s.spec.recovery_substeps > 1:  # what recovering costs: the same walkers, one of them kept recovering
+        runs.append(walking_slices(s.characters, s.seconds, slices, s.spec, recovering=True))
+    timed = interleaved(runs)
+    (_, walked), (base, _) = timed[0], timed[1]
     wall, simulated, error, assist_n, assist_nm = walked
     forward, per_fwd, up_fwd, on_fwd, peak_fwd = push_test(s, side=False, worst=worst)
     sideways, per_side, up_side, on_side, peak_side = push_test(s, side=True, worst=worst)
@@ -387,6 +399,7 @@ def run(args: argparse.Namespace) -> dict[str, object]:
         "external_assist_nm": round(assist_nm, 1),
         "walkoff_success": round(sum(walkoffs) / len(walkoffs), 3) if walkoffs else None,
         "recovery_substeps": s.spec.recovery_substeps,
+        "recovery_cost_ratio": round(timed[2][0] / timed[0][0], 3) if len(timed) > 2 and timed[0][0] > 0 else None,
         "joint_limit_excess_deg": round(math.degrees(worst.rad), 2),
         **{f"joint_limit_excess_deg_{when}": round(math.degrees(rad), 2) for when, rad in worst.by_when.items()},
     }

@@ -58,6 +58,9 @@ def test_quick_bench_recovering_at_finer_steps() -> None:
     plain = main_json("ragdoll", ["--quick"])
     fine = main_json("ragdoll", ["--quick", "--recovery-substeps", "8"])
     assert (plain["recovery_substeps"], fine["recovery_substeps"]) == (1, 8)
+    assert plain["recovery_cost_ratio"] is None
+    cost = fine["recovery_cost_ratio"]  # one walker kept recovering: a ratio of wall times, reported, not judged
+    assert isinstance(cost, float) and cost > 0.0 and math.isfinite(cost)
     assert fine["joint_limit_excess_deg_unpushed"] == plain["joint_limit_excess_deg_unpushed"] == 0.0
     # one 600 N push each way: measured 10.9° past a limit at the world's step, 2.5° at 8 substeps
     assert fine["joint_limit_excess_deg"] < plain["joint_limit_excess_deg"]
