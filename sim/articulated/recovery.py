@@ -28,8 +28,9 @@ never lying still; braced for the first 0.6 s only: 3.1 / 4.1°); ``recovery_cv_
 make the staggering gait settle sooner (one run each: 0.4 settled, 0.45 and 0.5 did not).
 
 Weak, and why it is off by default:
-- Cost: while any character recovers, every body's physics is stepped 8 times; 4 characters walking, one of
-  them recovering: 3.4–4.2× the wall time (measured; realtime factor 0.7 while two benches ran beside it).
+- Cost: while any character recovers, every body's physics is stepped 8 times: 4 walkers, one of them kept
+  recovering, take 4.3× the wall time of the 4 alone (the bench's ``recovery_cost_ratio``; one walker alone,
+  ``--quick``: 3.1×); at the world's step those 4 ran 3.2× faster than real time on this 2-core machine.
 - Going back to the world's step is a jolt: the body is stiffer at the finer step and the gains change with
   it. Of four runs (300 N sideways at two phases, 240 N forward, 700 N forward with a fall and a get-up),
   one fell some seconds after going back (4.6° past a limit before the fall made it recover again); the other
