@@ -24,8 +24,11 @@ Measured, ``jostle bench ragdoll --recovery-substeps 8`` (the default run's figu
 The walk before a push runs at the world's step: ``cost_ratio_vs_baseline`` (unpushed walking) is unchanged.
 Tried and not kept: 16 substeps (with these gains: 9.2° while staggering, 3.7° falling); falls braced
 (every joint at 0.5 / 0.3 of its gains while falling: 0.0 / 0.5° fallen, but 0 / 6 of 8 get-ups, the body
-never lying still; braced for the first 0.6 s only: 3.1 / 4.1°); ``recovery_cv_sagittal`` 0.4 / 0.45 / 0.5 to
-make the staggering gait settle sooner (one run each: 0.4 settled, 0.45 and 0.5 did not).
+never lying still; braced for the first 0.6 s only: 3.1 / 4.1°); ``recovery_cv_sagittal`` 0.2 / 0.4 / 0.45 /
+0.5 to make the staggering gait settle sooner (one run each: 0.4 settled, the rest did not; 0.2 walked at a
+crawl; walk-offs after a get-up, 0.3 / 0.4 / 0.5 / 0.6: 0 / 4 / 7 / 7 of 7); finer steps only while
+staggering, falling, lying or getting up, the world's step again whenever it walks: worst 26.9° (8 substeps)
+and pushes of 40–100 N felled it at some phases: switching back and forth mid-stride is what fells it.
 
 Weak, and why it is off by default:
 - Cost: while any character recovers, every body's physics is stepped 8 times: 4 walkers, one of them kept
