@@ -37,9 +37,8 @@ In one process, on the world's physics settings (``sim.physics.open_client``, 1/
    upright after a push that then felled it (up to the fall); fallen (falling, lying, getting up); walking
    off after a get-up.
 
-7. with ``--recovery-substeps`` N > 1 (``sim.articulated.recovery``: physics N times finer while a character
-   recovers from a push), ``recovery_cost_ratio``: the walkers of step 1 with one of them kept recovering,
-   wall time over step 1's (a third run in the same turns); None when recovery is off.
+7. ``recovery_cost_ratio`` (``--recovery-substeps`` N > 1: physics N times finer while one recovers from a
+   push, ``sim.articulated.recovery``; else None): step 1's walkers, one kept recovering, over step 1's time.
 
 Details (per phase, the baseline's fall time) go to stderr; the figures are the keys above.
 """
@@ -60,9 +59,8 @@ from jostle.ragdoll_baseline import BenchSim, baseline_slices, log
 KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
         "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")
 EXCESS_WHEN = ("unpushed", "survived", "felled", "down", "walkoff")  # joint_limit_excess_deg_<when>: module doc
-EXTRA_KEYS = ("external_assist_nm", "walkoff_success", "recovery_substeps", "recovery_cost_ratio",
-              "joint_limit_excess_deg",
-              *(f"joint_limit_excess_deg_{when}" for when in EXCESS_WHEN))  # beyond the issue's keys
+EXTRA_KEYS = ("external_assist_nm", "walkoff_success", "recovery_substeps", "recovery_cost_ratio",  # beyond the
+              "joint_limit_excess_deg", *(f"joint_limit_excess_deg_{when}" for when in EXCESS_WHEN))  # issue's keys
 WALK_ON_S, WALK_ON_M = 6.0, 2.0  # a get-up is followed by this long, in which this far must be walked
 DOWN = ("fall", "lie", "stand_up")  # CharacterState values that count as fallen
 PUSH_S = 0.2
@@ -112,8 +110,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--after", type=float, default=3.0, metavar="S", help="watch this long after a push")
     parser.add_argument("--getup-window", type=float, default=8.0, metavar="S", help="time to stand again")
     parser.add_argument("--recovery-substeps", type=int, default=None, metavar="N",
-                        help="physics steps per step while a character recovers from a push (default: the "
-                             "character's, 1; 8 holds the joint limits: sim.articulated.recovery)")
+                        help="physics steps per step while a character recovers from a push (default 1; 8 holds "
+                             "the joint limits: sim.articulated.recovery)")
     parser.add_argument("--quick", action="store_true",
                         help="tiny settings for tests: 1 character, 0.5 s, 1 phase, one 600 N push")
 
@@ -139,15 +137,12 @@ def _settings(args: argparse.Namespace) -> argparse.Namespace:
 
 def character_spec(args: argparse.Namespace) -> Any:
     """The characters' spec: the default one, with ``--recovery-substeps`` when given."""
-    import dataclasses
-
     from sim.articulated.spec import ArticulatedSpec
 
-    changes = {name: getattr(args, name) for name in ("recovery_substeps",) if getattr(args, name, None) is not None}
     try:
-        return dataclasses.replace(ArticulatedSpec(), **changes)
-    except ValueError as e:
-        raise ValueError(f"--{str(e).split(':')[0].replace('_', '-')}: {str(e).split(':', 1)[1].strip()}") from None
+        return ArticulatedSpec(**({} if args.recovery_substeps is None else {"recovery_substeps": args.recovery_substeps}))
+    except ValueError as e:  # "recovery_substeps: expected …" said as the flag
+        raise ValueError("--" + str(e).replace("recovery_substeps", "recovery-substeps", 1)) from None
 
 
 def _new_character(sim: BenchSim, position: tuple[float, float], spec: Any = None) -> Any:
@@ -376,8 +371,8 @@ def run(args: argparse.Namespace) -> dict[str, object]:
     if s.spec.recovery_substeps > 1:  # what recovering costs: the same walkers, one of them kept recovering
         runs.append(walking_slices(s.characters, s.seconds, slices, s.spec, recovering=True))
     timed = interleaved(runs)
-    (_, walked), (base, _) = timed[0], timed[1]
-    wall, simulated, error, assist_n, assist_nm = walked
+    wall, simulated, error, assist_n, assist_nm = timed[0][1]
+    base = timed[1][0]
     forward, per_fwd, up_fwd, on_fwd, peak_fwd = push_test(s, side=False, worst=worst)
     sideways, per_side, up_side, on_side, peak_side = push_test(s, side=True, worst=worst)
     assist_n = max(assist_n, peak_fwd[0], peak_side[0])

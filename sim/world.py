@@ -288,8 +288,7 @@ class World:
         pad_forces = tick_forces(self._pushes, crowd, cfg.control_dt, cfg.max_impulse_force_n)
         start = time.perf_counter()
         for k in range(self._n_sub):
-            # a recovering articulated character asks for finer steps (sim.articulated.recovery): all bodies take them
-            fine = self.articulated.substeps() if self.articulated.characters else 1
+            fine = self.articulated.substeps()  # finer while one recovers (sim.articulated.recovery): all bodies
             if fine > 1:
                 p.setPhysicsEngineParameter(fixedTimeStep=cfg.physics_dt / fine, physicsClientId=client)
             for j in range(fine):

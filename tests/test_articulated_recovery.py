@@ -70,13 +70,18 @@ def test_recovery_settles_after_walking_steadily() -> None:
     assert not r.active and r.wanted_substeps == 1
     r.begin()
     assert r.active and r.wanted_substeps == 4
+    walk, fall = CharacterState.WALK, CharacterState.FALL
     for _ in range(9):
-        r.update(True, 0.1)
-    r.update(False, 0.1)  # staggered again: the steady time starts over
+        r.update(walk, False, False, 0.1)
+    r.update(walk, True, False, 0.1)  # pushed again: the steady time starts over
     for _ in range(9):
-        r.update(True, 0.1)
+        r.update(CharacterState.STAGGER, False, False, 0.1)  # staggering upright counts as steady
+    r.update(walk, False, True, 0.1)  # walking off from a stand does not
+    r.update(fall, False, False, 0.1)  # nor falling
+    for _ in range(9):
+        r.update(walk, False, False, 0.1)
     assert r.active
-    r.update(True, 0.1)
+    r.update(walk, False, False, 0.1)
     assert not r.active and r.wanted_substeps == 1
     off = Recovery(ArticulatedSpec())  # recovery_substeps 1: never
     off.begin()

@@ -178,8 +178,7 @@ class ArticulatedCharacter:
         self._enter(CharacterState.STAGGER, only_from=(CharacterState.WALK,))
 
     def touched(self) -> None:
-        """Something pushes it now (a push, a person's contact): recover at finer steps
-        (``sim.articulated.recovery``)."""
+        """Something pushes it now (a push, a contact, a fall): recover at finer steps (``sim.articulated.recovery``)."""
         self.recovery.begin()
 
     @property
@@ -254,9 +253,7 @@ class ArticulatedCharacter:
             self._since = 0.0
         assert self._cmd is not None
         if self.recovery.active:
-            steady = (self.state in (CharacterState.WALK, CharacterState.STAGGER) and not self._pushes
-                      and self._walk_in() >= 1.0)  # upright, unpushed, not walking off from a stand
-            self.recovery.update(steady, dt)
+            self.recovery.update(self.state, bool(self._pushes), self._walk_in() < 1.0, dt)
         self.tracker.issue(self._cmd)
         c = self.client
         for link, torque in self._torques:

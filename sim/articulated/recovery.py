@@ -53,6 +53,7 @@ from typing import Protocol
 import pybullet as p
 
 from sim.articulated.spec import ArticulatedSpec
+from sim.snapshot import CharacterState
 
 
 def recovering_spec(spec: ArticulatedSpec) -> ArticulatedSpec:
@@ -77,11 +78,12 @@ class Recovery:
             self.active = True
         self._steady_s = 0.0
 
-    def update(self, steady: bool, dt: float) -> None:
-        """``steady``: walking, unpushed, not staggering, not walking off from a stand. Settled after
-        ``settle_s`` of that in a row."""
+    def update(self, state: CharacterState, pushed: bool, walking_in: bool, dt: float) -> None:
+        """Settled after ``settle_s`` in a row upright (walking or staggering), unpushed and not walking off
+        from a stand (``walking_in``)."""
         if not self.active:
             return
+        steady = state in (CharacterState.WALK, CharacterState.STAGGER) and not pushed and not walking_in
         self._steady_s = self._steady_s + dt if steady else 0.0
         if self._steady_s >= self.settle_s - 1e-9:  # (steps of dt summed)
             self.active = False
