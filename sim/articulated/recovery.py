@@ -73,7 +73,7 @@ class Recovery:
         self._steady_s = 0.0
 
     def begin(self) -> None:
-        """Pushed, touched or staggering: recover (again) from now."""
+        """Pushed, touched or falling: recover (again) from now (never with ``recovery_substeps`` 1)."""
         if self.substeps > 1:
             self.active = True
         self._steady_s = 0.0
@@ -95,7 +95,7 @@ class Recovery:
 
 
 class Stepped(Protocol):
-    client: int
+    """What ``advance`` steps: an articulated character."""
 
     @property
     def wanted_substeps(self) -> int: ...
