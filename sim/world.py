@@ -252,14 +252,14 @@ class World:
             self._pushes.append(Push(row, imp.force, axis_offset(crowd, row, imp.position[2]), imp.duration,
                                      imp.duration, now))
 
-    def _physics_step(self, pad_forces: list[tuple[int, Vec3, Vec3]], dt: float, t_sub: float,
+    def _physics_step(self, pad_forces: list[tuple[int, Vec3, Vec3]], fine: int, t_sub: float,
                       touched: set[int]) -> None:
-        """One ``stepSimulation`` of ``dt`` (pads re-applied before it), then the people's contact forces."""
-        client, crowd = self._require_open(), self._crowd
+        """One ``stepSimulation`` of physics_dt / ``fine`` (pads re-applied before it), then the contacts."""
+        client, crowd, dt = self._require_open(), self._crowd, self.config.physics_dt / fine
         for body, force, at in pad_forces:
             p.applyExternalForce(body, -1, force, at, p.WORLD_FRAME, physicsClientId=client)
         if self.articulated.characters:
-            self.articulated.before_physics_step(dt)
+            self.articulated.before_physics_step(dt, fine > 1)
         p.stepSimulation(physicsClientId=client)
         if not self._pool.active:
             return
@@ -292,8 +292,7 @@ class World:
             if fine > 1:
                 p.setPhysicsEngineParameter(fixedTimeStep=cfg.physics_dt / fine, physicsClientId=client)
             for j in range(fine):
-                self._physics_step(pad_forces, cfg.physics_dt / fine, t0 + (k + (j + 1) / fine) * cfg.physics_dt,
-                                   touched)
+                self._physics_step(pad_forces, fine, t0 + (k + (j + 1) / fine) * cfg.physics_dt, touched)
             if fine > 1:
                 p.setPhysicsEngineParameter(fixedTimeStep=cfg.physics_dt, physicsClientId=client)
         self.physics_wall_s += time.perf_counter() - start

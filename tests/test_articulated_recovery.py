@@ -65,6 +65,24 @@ def test_recovering_at_finer_steps_keeps_the_joints_inside_their_limits(client: 
     assert max(side_off, fall_off) > 2.0 * BOUND_DEG, (side_off, fall_off)  # the soft limits it is there for
 
 
+def test_a_twin_walks_on_while_the_world_steps_finely_for_the_pushed_one(client: int,
+                                                                          skeleton: ArticulatedSkeleton) -> None:
+    """Stepped finely for the other's sake, a walker balances with the recovery's gains too (with its walking
+    gains at the finer step it fell, at each of 4 walking phases tried: measured)."""
+    pushed = ArticulatedCharacter(client, skeleton, RECOVERING, None, (0.0, 0.0), 0.0)
+    twin = ArticulatedCharacter(client, skeleton, RECOVERING, None, (0.0, 3.0), 0.0)
+    p.setCollisionFilterPair(pushed.body, twin.body, -1, -1, 0, physicsClientId=client)
+    fine = []
+    for _ in range(round(8.0 / DT)):
+        if abs(pushed.t - 2.0) < DT / 2:
+            h = bal.heading_of(pushed.root()[1])
+            pushed.push("root", (-300.0 * math.sin(h), 300.0 * math.cos(h), 0.0), 0.2)
+        fine.append(advance(client, [pushed, twin], DT) > 1 and twin.stepped_finely)
+        assert not twin.recovery.active  # nobody touched it: it only follows the world's step
+    assert 3.0 < sum(fine) * DT < 6.0  # the pushed one recovered, settled, and the world's step came back
+    assert pushed.falls == 0 and twin.falls == 0 and twin.state == CharacterState.WALK
+
+
 def test_recovery_settles_after_walking_steadily() -> None:
     r = Recovery(ArticulatedSpec(recovery_substeps=4, recovery_settle_s=1.0))
     assert not r.active and r.wanted_substeps == 1

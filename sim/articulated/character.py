@@ -68,6 +68,7 @@ class ArticulatedCharacter:
         self.spec = spec
         self._recovering_spec = recovering_spec(spec)  # balance gains while recovering
         self.recovery = Recovery(spec)
+        self.stepped_finely = False  # the world steps finer now (for it or another character): recovery gains
         self._up = source_to_stage(skeleton)
         self.walk = MotionReference(clip or MotionClip.load(pybullet_motion_path(spec.walk_clip)), skeleton)
         self.ref = self.walk
@@ -183,8 +184,8 @@ class ArticulatedCharacter:
 
     @property
     def _gains(self) -> ArticulatedSpec:
-        """The spec balance and assist use now: the recovery's gains while recovering."""
-        return self._recovering_spec if self.recovery.active else self.spec
+        """The spec balance, assist and states use now: the recovery's while it (or the world) steps finer."""
+        return self._recovering_spec if self.recovery.active or self.stepped_finely else self.spec
 
     @property
     def wanted_substeps(self) -> int:

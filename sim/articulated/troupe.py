@@ -68,8 +68,10 @@ class ArticulatedCharacters:
         point = (float(com[0] + c * at[0] - s * at[1]), float(com[1] + s * at[0] + c * at[1]), float(com[2] + at[2]))
         ch.push(ch.nearest_link(point), force, duration)
 
-    def before_physics_step(self, dt: float) -> None:
+    def before_physics_step(self, dt: float, fine: bool = False) -> None:
+        """Every character's control for a physics step of ``dt`` (``fine``: finer than the world's step)."""
         for name, ch in self.characters.items():
+            ch.stepped_finely = fine
             ch.step_control(dt)
             self._force[name] = max(self._force[name], ch.last_push_force_n)
 
