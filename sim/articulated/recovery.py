@@ -35,8 +35,8 @@ and pushes of 40–100 N felled it at some phases: switching back and forth mid-
 Weak, and why it is off by default:
 - Cost: while any character recovers, every body's physics is stepped 8 times: 4 walkers, one of them kept
   recovering, take 3.3–4.3× the wall time of the 4 alone (the bench's ``recovery_cost_ratio``, two runs on a
-  busy machine; one walker alone,
-  ``--quick``: 3.1×); at the world's step those 4 ran 3.2× faster than real time on this 2-core machine.
+  busy machine; one walker alone, ``--quick``: 3.1×); at the world's step those 4 ran 3.2× faster than real
+  time on this 2-core machine.
 - Going back to the world's step is a jolt: the body is stiffer at the finer step and the gains change with
   it. Of four runs (300 N sideways at two phases, 240 N forward, 700 N forward with a fall and a get-up),
   one fell some seconds after going back (4.6° past a limit before the fall made it recover again); the other
