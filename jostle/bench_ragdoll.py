@@ -371,8 +371,7 @@ def run(args: argparse.Namespace) -> dict[str, object]:
     if s.spec.recovery_substeps > 1:  # what recovering costs: the same walkers, one of them kept recovering
         runs.append(walking_slices(s.characters, s.seconds, slices, s.spec, recovering=True))
     timed = interleaved(runs)
-    wall, simulated, error, assist_n, assist_nm = timed[0][1]
-    base = timed[1][0]
+    (wall, simulated, error, assist_n, assist_nm), base = timed[0][1], timed[1][0]
     forward, per_fwd, up_fwd, on_fwd, peak_fwd = push_test(s, side=False, worst=worst)
     sideways, per_side, up_side, on_side, peak_side = push_test(s, side=True, worst=worst)
     assist_n = max(assist_n, peak_fwd[0], peak_side[0])

@@ -35,7 +35,7 @@ from sim.articulated import quat1 as q1
 from sim.articulated.build import build_multibody, source_to_stage
 from sim.articulated.pushes import LinkPushes
 from sim.articulated.readout import BodyReadout
-from sim.articulated.recovery import Recovery, recovering_spec
+from sim.articulated.recovery import Recovery
 from sim.articulated.reference import MotionReference, ReferencePose
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
@@ -66,8 +66,7 @@ class ArticulatedCharacter:
         self.client = client
         self.skeleton = skeleton
         self.spec = spec
-        self._recovering_spec = recovering_spec(spec)  # balance gains while recovering
-        self.recovery = Recovery(spec)
+        self.recovery = Recovery(spec)  # finer steps after a push, and the balance gains meanwhile (.spec)
         self.stepped_finely = False  # the world steps finer now (for it or another character): recovery gains
         self._up = source_to_stage(skeleton)
         self.walk = MotionReference(clip or MotionClip.load(pybullet_motion_path(spec.walk_clip)), skeleton)
@@ -185,7 +184,7 @@ class ArticulatedCharacter:
     @property
     def _gains(self) -> ArticulatedSpec:
         """The spec balance, assist and states use now: the recovery's while it (or the world) steps finer."""
-        return self._recovering_spec if self.recovery.active or self.stepped_finely else self.spec
+        return self.recovery.spec if self.recovery.active or self.stepped_finely else self.spec
 
     @property
     def wanted_substeps(self) -> int:

@@ -49,7 +49,7 @@ Weak, and why it is off by default:
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Protocol
 
 import pybullet as p
@@ -69,6 +69,7 @@ class Recovery:
     """Whether a character is recovering (finer steps, recovery gains), and for how long it has walked since."""
 
     def __init__(self, spec: ArticulatedSpec) -> None:
+        self.spec = recovering_spec(spec)
         self.substeps = int(spec.recovery_substeps)
         self.settle_s = float(spec.recovery_settle_s)
         self.active = False
@@ -107,7 +108,7 @@ class Stepped(Protocol):
     def step_control(self, dt: float) -> None: ...
 
 
-def substeps_of(characters: Sequence[Stepped]) -> int:
+def substeps_of(characters: Iterable[Stepped]) -> int:
     """Physics steps per step the world should take now: the most any character asks for (1: none)."""
     return max((c.wanted_substeps for c in characters), default=1)
 

@@ -84,7 +84,7 @@ class ArticulatedCharacters:
 
     def substeps(self) -> int:
         """Physics steps per world step the characters need now (``sim.articulated.recovery``)."""
-        return substeps_of(list(self.characters.values()))
+        return substeps_of(self.characters.values())
 
     def notice(self, event: ContactEvent) -> None:
         """A contact episode ended: a push makes the character stagger."""
