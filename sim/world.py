@@ -252,14 +252,15 @@ class World:
             self._pushes.append(Push(row, imp.force, axis_offset(crowd, row, imp.position[2]), imp.duration,
                                      imp.duration, now))
 
-    def _physics_step(self, pad_forces: list[tuple[int, Vec3, Vec3]], fine: int, t_sub: float,
+    def _physics_step(self, pad_forces: list[tuple[int, Vec3, Vec3]], fine: tuple[int, bool], t_sub: float,
                       touched: set[int]) -> None:
-        """One ``stepSimulation`` of physics_dt / ``fine`` (pads re-applied before it), then the contacts."""
-        client, crowd, dt = self._require_open(), self._crowd, self.config.physics_dt / fine
+        """One ``stepSimulation`` of physics_dt / ``fine[0]`` (pads re-applied before it), then the contacts
+        (``fine``: ``ArticulatedTroupe.substeps()``)."""
+        client, crowd, dt = self._require_open(), self._crowd, self.config.physics_dt / fine[0]
         for body, force, at in pad_forces:
             p.applyExternalForce(body, -1, force, at, p.WORLD_FRAME, physicsClientId=client)
         if self.articulated.characters:
-            self.articulated.before_physics_step(dt, fine > 1)
+            self.articulated.before_physics_step(dt, fine[1])
         p.stepSimulation(physicsClientId=client)
         if not self._pool.active:
             return
@@ -289,11 +290,12 @@ class World:
         start = time.perf_counter()
         for k in range(self._n_sub):
             fine = self.articulated.substeps()  # finer while one recovers (sim.articulated.recovery): all bodies
-            if fine > 1:
-                p.setPhysicsEngineParameter(fixedTimeStep=cfg.physics_dt / fine, physicsClientId=client)
-            for j in range(fine):
-                self._physics_step(pad_forces, fine, t0 + (k + (j + 1) / fine) * cfg.physics_dt, touched)
-            if fine > 1:
+            n = fine[0]
+            if n > 1:
+                p.setPhysicsEngineParameter(fixedTimeStep=cfg.physics_dt / n, physicsClientId=client)
+            for j in range(n):
+                self._physics_step(pad_forces, fine, t0 + (k + (j + 1) / n) * cfg.physics_dt, touched)
+            if n > 1:
                 p.setPhysicsEngineParameter(fixedTimeStep=cfg.physics_dt, physicsClientId=client)
         self.physics_wall_s += time.perf_counter() - start
         self._ticks += 1

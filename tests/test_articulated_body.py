@@ -120,6 +120,7 @@ def test_spec_validates_and_loads_from_toml() -> None:
     path = ROOT / "configs" / "characters" / "ragdoll.toml"
     spec = build(ArticulatedSpec, load_toml(path), source=str(path), key="", base_dir=path.parent)
     assert spec.body == "articulated" and spec.pd == "stable"
+    assert spec.recovery_substeps == ArticulatedSpec().recovery_substeps == 8  # shipped recovering (issue 9)
     kp, kd, fmax = spec.gains("knee")
     assert kp == pytest.approx(6000.0 * 45.0 / 70.0, rel=1e-5) and kd == pytest.approx(450 * 45 / 70, rel=1e-5)
     assert fmax == 150.0

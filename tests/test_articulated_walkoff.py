@@ -24,9 +24,10 @@ def _until(client: int, ch: ArticulatedCharacter, seconds: float, done: list[Cha
     return False
 
 
-# heading +x: pushed forward / to its left it falls face down, pushed back it falls face up
+# heading +x: pushed forward / to its left it falls face down, pushed back it falls face up (600 N back it
+# recovers by stepping: measured)
 @pytest.mark.parametrize(("force", "face_up"), [((600.0, 0.0, 0.0), False), ((0.0, 600.0, 0.0), False),
-                                                ((-600.0, 0.0, 0.0), True)])
+                                                ((-700.0, 0.0, 0.0), True)])
 def test_walks_on_after_getting_up(client: int, force: tuple[float, float, float], face_up: bool) -> None:
     ch = ArticulatedCharacter(client, deepmimic_humanoid(), ArticulatedSpec(), None, (0.0, 0.0), 0.0)
     assert not _until(client, ch, 2.0, list(DOWN))
@@ -51,7 +52,7 @@ def test_face_up_get_up_ends_standing_over_its_feet(client: int) -> None:
     held over the feet the body pivoted forward over them and ended at 0.74 m leaning ~20° forward."""
     ch = ArticulatedCharacter(client, deepmimic_humanoid(), ArticulatedSpec(), None, (0.0, 0.0), 0.0)
     assert not _until(client, ch, 2.0, list(DOWN))
-    ch.push("root", (-600.0, 0.0, 0.0), 0.2)
+    ch.push("root", (-700.0, 0.0, 0.0), 0.2)
     assert _until(client, ch, 13.0, [CharacterState.WALK]) and ch.getup_face_up
     root, orn = ch.root()
     assert root[2] > 0.8 and np.degrees(bal.tilt_of(orn)) < 12.0

@@ -17,9 +17,9 @@ the supporting foot's stance with the feet closest together, blending over only 
 face-up get-up the root is held over the feet as in the clip (``sim.articulated.getup``); foot placement ignores being slower than the clip beyond ``SLOW_MS``. Staggering after a push,
 the stance hip is stiffer (``stagger_stance_hip_gain``) and the clip plays faster while the capture point is
 toward the stance foot's side (``stagger_hurry``: the crossing step lands sooner, the leg on the side the body
-goes to steps out sooner). Balance: ``sim.articulated.balance``;
-bounded root help: ``sim.articulated.assist``. Targets, balance and states update at ``spec.control_hz``.
-Joint limits are pybullet's own constraints in every state (``sim.articulated.build``).
+goes to steps out sooner). Balance: ``sim.articulated.balance``; bounded root help: ``sim.articulated.assist``.
+Targets, balance and states update at ``spec.control_hz``. Joint limits are pybullet's own constraints in
+every state (``sim.articulated.build``), held harder while it recovers (``sim.articulated.recovery``).
 """
 
 from __future__ import annotations
@@ -184,7 +184,7 @@ class ArticulatedCharacter:
     @property
     def _gains(self) -> ArticulatedSpec:
         """The spec balance, assist and states use now: the recovery's while it (or the world) steps finer."""
-        return self.recovery.spec if self.recovery.active or self.stepped_finely else self.spec
+        return self.recovery.spec if self.stepped_finely else self.recovery.gains(self.spec)
 
     @property
     def wanted_substeps(self) -> int:
@@ -204,9 +204,9 @@ class ArticulatedCharacter:
         self.state = state
         self._state_t = 0.0
         self._hold_t = 0.0
-        if state == CharacterState.FALL:
-            self.falls += 1
-            self.touched()  # however it came to fall: its fall and get-up at finer steps
+        if state in (CharacterState.FALL, CharacterState.STAGGER):  # however it came to: recover at finer steps
+            self.falls += int(state == CharacterState.FALL)
+            self.touched()
         if state == CharacterState.STAND_UP:
             _, orn = self.root()
             self.getup_face_up = bal.face_up(orn)
@@ -252,8 +252,7 @@ class ArticulatedCharacter:
             self._update(self._since)
             self._since = 0.0
         assert self._cmd is not None
-        if self.recovery.active:
-            self.recovery.update(self.state, bool(self._pushes), self._walk_in() < 1.0, dt)
+        self.recovery.update(self.state, bool(self._pushes), self._walk_in() < 1.0, dt)
         self.tracker.issue(self._cmd)
         c = self.client
         for link, torque in self._torques:
@@ -303,8 +302,9 @@ class ArticulatedCharacter:
         omegas = r.omegas * self._rate  # the clip plays at _rate: so do its joint velocities
         if self.state in (CharacterState.FALL, CharacterState.LIE):
             scale *= self.spec.ragdoll_gain
-            if self.recovery.active:  # the head braced: limp, a face-down landing bent the neck 10° past its limit
-                scale[self._neck] = self.spec.recovery_neck_gain
+        if self.recovery.active:  # the head and the joints at their limits braced (sim.articulated.recovery)
+            targets, omegas, scale = self.recovery.brace(self.tracker.limits, self.tracker.read()[0], self.state,
+                                                         (targets, omegas, scale), self._neck)
         self._cmd = self.tracker.command(targets, omegas, scale)
         self._assist(r, root, orn, omega_a, desired_root)
         self._update_state(root, orn, dt)

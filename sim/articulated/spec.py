@@ -109,19 +109,27 @@ class ArticulatedSpec:
     # forward over its feet, ends crouched and leaning ~20° and falls walking off: measured)
     getup_place_force_n: float = 150.0
     getup_place_tilt_deg: float = 45.0
-    # recovering from a push (sim.articulated.recovery; off by default): the world steps this many times finer
-    # from a push, a person's contact or a fall on (1: never), until it has been upright and unpushed for
-    # recovery_settle_s; meanwhile foot placement's velocity gains, the pelvis torque limit and fall_load are
-    # these, and falling or lying the neck keeps recovery_neck_gain of its gains (the head braced). Measured
-    # (jostle bench ragdoll --recovery-substeps 8): the joints stay within 2.1° of their limits over 4 phases
-    # (6.6° over 8) instead of 22.4° (28.3°); that module says what it costs and what is still weak
-    recovery_substeps: int = 1
+    # recovering from a push (sim.articulated.recovery): the world steps this many times finer from a push, a
+    # person's contact, a stagger or a fall on (1: never), until it has walked unpushed for recovery_settle_s,
+    # then recovery_handover_s more with the walking gains; meanwhile foot placement's velocity gains, the
+    # pelvis torque limit and the state loads are these. Falling or lying, the neck keeps recovery_neck_gain
+    # of its gains and every joint within brace_margin_deg of a limit is held where it is at brace_gain; upright
+    # or getting up, a joint past a limit is driven limit_stop_inside_deg inside at limit_stop_gain (0: off).
+    # That module has the figures (jostle bench ragdoll), what it costs and what is still weak
+    recovery_substeps: int = 8
     recovery_settle_s: float = 4.0
+    recovery_handover_s: float = 2.0
     recovery_cv_sagittal: float = 0.6
     recovery_cv_coronal: float = 0.2
     recovery_assist_torque_max_nm: float = 200.0
     recovery_fall_load: float = 1.25
     recovery_neck_gain: float = 1.0
+    recovery_stagger_load: float = 1.0
+    recovery_recover_load: float = 0.9
+    brace_gain: float = 1.0
+    brace_margin_deg: float = 11.5
+    limit_stop_gain: float = 3.0
+    limit_stop_inside_deg: float = 1.0
     # states
     push_threshold_ns: float = 10.0  # an impulse this large (N·s) makes it STAGGER
     stagger_load: float = 0.8  # balance load (capture point / support reach) above which it staggers
@@ -165,8 +173,9 @@ class ArticulatedSpec:
                       "assist_torque_max_nm", "assist_force_max_n",
                       "getup_assist_force_max_n", "getup_assist_torque_max_nm", "getup_place_force_n", "walk_in_s", "walk_in_assist",
                       "walk_in_force_n", "walk_in_force_faceup_n", "walk_in_blend_s", "recover_hold_s", "still_hold_s")
-        _non_negative(self, "fall_load", "recovery_settle_s", "recovery_cv_sagittal", "recovery_cv_coronal",
-                      "recovery_assist_torque_max_nm", "recovery_fall_load", "recovery_neck_gain")
+        _non_negative(self, "fall_load", "recovery_settle_s", "recovery_handover_s", "recovery_cv_sagittal", "recovery_cv_coronal",
+                      "recovery_assist_torque_max_nm", "recovery_fall_load", "recovery_neck_gain", "brace_gain",
+                      "brace_margin_deg", "limit_stop_gain", "limit_stop_inside_deg")
         if isinstance(self.recovery_substeps, bool) or not isinstance(self.recovery_substeps, int) \
                 or not 1 <= self.recovery_substeps <= 32:
             raise ValueError(f"recovery_substeps: expected a whole number from 1 to 32, got {self.recovery_substeps!r}")
@@ -174,6 +183,9 @@ class ArticulatedSpec:
             raise ValueError(f"stagger_hurry_max: expected a number >= 1, got {self.stagger_hurry_max!r}")
         if not self.recover_load < self.stagger_load:
             raise ValueError(f"recover_load: expected < stagger_load={self.stagger_load}, got {self.recover_load}")
+        if not 0 < self.recovery_recover_load < self.recovery_stagger_load:
+            raise ValueError(f"recovery_recover_load: expected above 0 and below recovery_stagger_load="
+                             f"{self.recovery_stagger_load}, got {self.recovery_recover_load}")
         if not 0 < self.fall_tilt_deg < 90 or not self.upright_tilt_deg < self.fall_tilt_deg:
             raise ValueError(f"fall_tilt_deg: expected between upright_tilt_deg={self.upright_tilt_deg} and 90, "
                              f"got {self.fall_tilt_deg}")

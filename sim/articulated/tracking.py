@@ -123,6 +123,7 @@ import pybullet as p
 from sim.articulated.joint_limit import (
     CLAMP_MARGIN,
     clamp_inside,
+    limit_angles,
     limit_angles_one,
     limit_excess,
     limit_ranges,
@@ -202,6 +203,31 @@ class JointLimits:
         s = math.sqrt(x * x + y * y + z * z)
         return 2.0 * math.atan2(s, w) * ((x * ax + y * ay + z * az) / s if s > 1e-12 else 0.0)
 
+    def _hinge_nearest(self, rots: np.ndarray) -> np.ndarray:
+        """Hinge angles (D,), each taken a turn up or down where that puts it nearer its range (a knee folded
+        to its −3.14 limit reads +3.14)."""
+        angle = self._hinge_angles(rots)[:, None] + np.array([-2.0 * math.pi, 0.0, 2.0 * math.pi])
+        outside = np.maximum(np.maximum(self.lower[:, None] - angle, angle - self.upper[:, None]), 0.0)
+        out: np.ndarray = np.take_along_axis(angle, np.argmin(outside, axis=1)[:, None], axis=1)[:, 0]
+        return out
+
+    def near(self, rots: np.ndarray, margin: float) -> np.ndarray:
+        """(D,) bool: each joint within ``margin`` (radians) of its limits, or past them."""
+        angle = self._hinge_nearest(rots)
+        out = (angle < self.lower + margin) | (angle > self.upper - margin)
+        b = self._ball
+        out[b] = np.any(np.abs(limit_angles(rots[b])) > self.ranges[b] - margin, axis=-1)
+        return out
+
+    def clamp_within(self, rots: np.ndarray, margin: float) -> np.ndarray:
+        """The rotations (D, 4) brought at least ``margin`` inside every limit (as ``clamp``)."""
+        m = np.minimum(margin, 0.5 * (self.upper - self.lower))
+        angle = np.clip(self._hinge_nearest(rots), self.lower + m, self.upper - m)
+        out: np.ndarray = np.where(self.hinge[:, None], quat_exp(self.axis * angle[:, None]), rots)
+        b = self._ball
+        out[b] = clamp_inside(rots[b], self.ranges[b], margin)
+        return out
+
     def clamp(self, rots: np.ndarray) -> np.ndarray:
         """The rotations (D, 4) brought inside the limits (hinges: the range; ball/universal: the twist
         clamped, the swing shortened along its arc)."""
@@ -213,10 +239,8 @@ class JointLimits:
 
     def excess(self, rots: np.ndarray) -> np.ndarray:
         """Radians by which each joint (D,) is outside its limits (0 inside)."""
-        angle = self._hinge_angles(rots)[:, None] + np.array([-2.0 * math.pi, 0.0, 2.0 * math.pi])
-        # a rotation names its hinge angle only up to a turn: a knee folded to its −3.14 limit reads +3.14
-        outside = np.maximum(np.maximum(self.lower[:, None] - angle, angle - self.upper[:, None]), 0.0)
-        out = np.where(self.hinge, outside.min(axis=1), 0.0)
+        angle = self._hinge_nearest(rots)
+        out = np.where(self.hinge, np.maximum(np.maximum(self.lower - angle, angle - self.upper), 0.0), 0.0)
         b = self._ball
         out[b] = limit_excess(rots[b], self.ranges[b])
         return out

@@ -17,7 +17,7 @@ import pybullet as p
 
 from sim.articulated import balance as bal
 from sim.articulated.character import ArticulatedCharacter
-from sim.articulated.recovery import substeps_of
+from sim.articulated.recovery import any_recovering, substeps_of
 from sim.articulated.skeleton import ArticulatedSkeleton, deepmimic_humanoid
 from sim.articulated.spec import ArticulatedSpec
 from sim.snapshot import CharacterSnapshot, CharacterState, ContactEvent, StateChange
@@ -68,10 +68,11 @@ class ArticulatedCharacters:
         point = (float(com[0] + c * at[0] - s * at[1]), float(com[1] + s * at[0] + c * at[1]), float(com[2] + at[2]))
         ch.push(ch.nearest_link(point), force, duration)
 
-    def before_physics_step(self, dt: float, fine: bool = False) -> None:
-        """Every character's control for a physics step of ``dt`` (``fine``: finer than the world's step)."""
+    def before_physics_step(self, dt: float, recovering: bool = False) -> None:
+        """Every character's control for a physics step of ``dt`` (``recovering``: finer than the world's step
+        for a character's recovery, ``sim.articulated.recovery.any_recovering``)."""
         for name, ch in self.characters.items():
-            ch.stepped_finely = fine
+            ch.stepped_finely = recovering
             ch.step_control(dt)
             self._force[name] = max(self._force[name], ch.last_push_force_n)
 
@@ -82,9 +83,11 @@ class ArticulatedCharacters:
         if force > 0.0:
             self.characters[name].touched()
 
-    def substeps(self) -> int:
-        """Physics steps per world step the characters need now (``sim.articulated.recovery``)."""
-        return substeps_of(self.characters.values())
+    def substeps(self) -> tuple[int, bool]:
+        """Physics steps per world step the characters need now, and whether for a recovery (not only a
+        hand-over) (``sim.articulated.recovery``)."""
+        n = substeps_of(self.characters.values())
+        return n, n > 1 and any_recovering(self.characters.values())
 
     def notice(self, event: ContactEvent) -> None:
         """A contact episode ended: a push makes the character stagger."""
