@@ -37,9 +37,8 @@ In one process, on the world's physics settings (``sim.physics.open_client``, 1/
    upright after a push that then felled it (up to the fall); fallen (falling, lying, getting up); walking
    off after a get-up.
 
-7. ``recovery_cost_ratio`` (``recovery_substeps`` N > 1, the default 8: physics N times finer while one recovers
-   from a push, ``sim.articulated.recovery``; with ``--recovery-substeps 1``, None): step 1's walkers, one kept
-   recovering, over step 1's time.
+7. ``recovery_cost_ratio`` (physics N = ``recovery_substeps`` times finer while one recovers, default 8,
+   ``sim.articulated.recovery``; None with 1): step 1's walkers, one kept recovering, over step 1's time.
 
 Details (per phase, the baseline's fall time) go to stderr; the figures are the keys above.
 """
@@ -111,9 +110,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--after", type=float, default=3.0, metavar="S", help="watch this long after a push")
     parser.add_argument("--getup-window", type=float, default=8.0, metavar="S", help="time to stand again")
     parser.add_argument("--recovery-substeps", type=int, default=None, metavar="N",
-                        help="physics steps per step while a character recovers from a push (default: the "
-                             "character's, 8, which holds the joint limits; 1: never finer. "
-                             "sim.articulated.recovery)")
+                        help="physics steps per step while a character recovers (default: the character's, 8, "
+                             "which holds the joint limits; 1: never finer; sim.articulated.recovery)")
     parser.add_argument("--quick", action="store_true",
                         help="tiny settings for tests: 1 character, 0.5 s, 1 phase, one 600 N push")
 

@@ -28,9 +28,10 @@ WORLD_STEP = ArticulatedSpec(recovery_substeps=1)
 # way with its get-up and the walk on after it
 PUSHES = [(2.0, 0.0, 300.0, 10.0, 0), (2.0, 240.0, 0.0, 10.0, 0), (1.0, 700.0, 0.0, 16.0, 1),
           (1.0, -700.0, 0.0, 16.0, 1), (2.0, 0.0, -700.0, 16.0, 1)]
-# Measured on these five runs, the most any joint was past a limit (degrees): recovering 0.0 / 0.0 / 0.7 /
-# 0.0 / 0.0, at the world's step 5.1 / … (see below); BOUND is the soft give the engine's limit rows leave
-BOUND_DEG = 1.5
+# Measured on these five runs, the most any joint was past a limit: 0.0 / 0.0 / 0.81 / 1.04 / 0.62° (the last
+# three while falling); at the world's step the first and third went 5.1° and 5.5° past. pybullet's limit
+# rows are soft (they act once a joint is past), so "never exceeded" is held to this give:
+BOUND_DEG = 1.5  # margin over the 1.04° (the physics differs a little between builds)
 
 
 def _run(client: int, skeleton: ArticulatedSkeleton, spec: ArticulatedSpec, push_at: float, forward: float,
@@ -85,8 +86,9 @@ def test_recovery_settles_after_walking_steadily_and_then_steps_as_the_world(cli
     *_, fine = _run(client, skeleton, RECOVERING, 2.0, 0.0, 300.0, 12.0)
     pushed_at = round(2.0 / DT)
     settled = pushed_at + fine[pushed_at:].index(1)
-    # settled recovery_settle_s after it walked again unpushed (measured: … s) and walked on at the world's step
-    assert settled * DT < 9.0 and set(fine[settled:]) == {1}
+    # walking again 0.8 s after the push, settled recovery_settle_s later, handed over for recovery_handover_s
+    # (measured: the world's step again at 8.8 s), and walked on at the world's step
+    assert settled * DT < 9.5 and set(fine[settled:]) == {1}
 
 
 def test_a_twin_walks_on_while_the_world_steps_finely_for_the_pushed_one(client: int,

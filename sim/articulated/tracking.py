@@ -106,10 +106,14 @@ With the drive at 4 steps per 1/240 s from the push on, the coronal foot placeme
 phases both ways, worst 4.1 / 4.3° (after pushes survived 0.7 / 4.3°), but forward minimum 200 N, sideways
 200 / 260 N, and no walk-off after a get-up (0 of 16); 0.1 / 0.2 only while staggering, walk-offs 6 / 7 of 8
 but forward 200 N, sideways 200 / 180 N (4 phases). Not kept.
-What is kept, off by default (``sim.articulated.recovery``, ``recovery_substeps``): 8 steps per 1/240 s from a
-push, a contact or a fall on, with the recovery's own balance gains (placement ``cv_sagittal`` 0.6,
-``cv_coronal`` 0.2, pelvis torque limit 200 N·m), a give-up balance load (1.25) and the neck held while falling;
-that module has its figures and its weaknesses.
+Also tried: each joint set back onto its limit after every physics step (``resetJointStateMultiDof``, at 8
+steps per 1/240 s, where the excesses left are small): with its outward rate removed, or its rate zeroed,
+the body blew up within a second of a 300–700 N push (a hip spun to pybullet's 100 rad/s cap); positions
+only, a 300 N sideways push it otherwise takes by stepping felled it. Not kept.
+What is kept, on by default (``sim.articulated.recovery``, ``recovery_substeps`` 8): 8 steps per 1/240 s from
+a push, a contact, a stagger or a fall on, with the recovery's own balance gains and state loads; falling,
+the joints near a limit braced where they are; upright or getting up, a joint past a limit driven back in.
+That module has its figures and its weaknesses.
 """
 
 from __future__ import annotations
