@@ -88,7 +88,7 @@ def braced(limits: JointLimits, rots: np.ndarray, targets: np.ndarray, omegas: n
 
 class Recovery:
     """Whether a character is recovering (finer steps, recovery gains), for how long it has walked since, and
-    its hand-over back to the world's step (finer steps, its walking gains)."""
+    its hand-over back to the world's step (finer steps, the gains blending into the walking ones)."""
 
     def __init__(self, spec: ArticulatedSpec) -> None:
         self.spec = recovering_spec(spec)
@@ -109,7 +109,7 @@ class Recovery:
 
     def update(self, state: CharacterState, pushed: bool, walking_in: bool, dt: float) -> None:
         """Settled after ``settle_s`` in a row walking (not staggering), unpushed and not walking off from a
-        stand (``walking_in``); then ``handover_s`` more at the finer step, with the walking gains."""
+        stand (``walking_in``); then ``handover_s`` more at the finer step, handing over (``gains``)."""
         if not self.active:
             self.handover_left = max(0.0, self.handover_left - dt)
             return
