@@ -254,8 +254,7 @@ class World:
 
     def _physics_step(self, pad_forces: list[tuple[int, Vec3, Vec3]], fine: tuple[int, bool], t_sub: float,
                       touched: set[int]) -> None:
-        """One ``stepSimulation`` of physics_dt / ``fine[0]`` (pads re-applied before it), then the contacts
-        (``fine``: ``ArticulatedTroupe.substeps()``)."""
+        """One ``stepSimulation`` of physics_dt / n, pads re-applied, then contacts (``fine``: n, recovering)."""
         client, crowd, dt = self._require_open(), self._crowd, self.config.physics_dt / fine[0]
         for body, force, at in pad_forces:
             p.applyExternalForce(body, -1, force, at, p.WORLD_FRAME, physicsClientId=client)
