@@ -1,8 +1,8 @@
 """Recovering at finer physics steps (``sim.articulated.recovery``, issue 9's "joint limits are never exceeded"):
 with the character's defaults (``recovery_substeps`` 8, the joints near a limit braced while falling) the
 joints stay inside their limits, up to the engine's soft give, through pushes taken by stepping, falls
-forward, backward and sideways, the get-ups face down and face up and the walk on; at the world's step the
-same pushes carry a hip well past."""
+forward, backward and sideways (each landing face down), the get-ups and the walk on; at the world's step
+the same pushes carry a hip well past. (The face-up get-up and walk-off: tests/test_articulated_walkoff.py.)"""
 
 from __future__ import annotations
 
@@ -74,7 +74,7 @@ def test_recovering_at_finer_steps_keeps_the_joints_inside_their_limits(
 
 
 def test_at_the_world_step_the_same_pushes_carry_a_joint_past(client: int, skeleton: ArticulatedSkeleton) -> None:
-    """The soft limits the recovery is there for: the two pushes that bent joints furthest at the world's step."""
+    """The soft limits the recovery is there for: two of the same pushes, at the world's step."""
     side, *_ = _run(client, skeleton, WORLD_STEP, 2.0, 0.0, 300.0, 5.0)
     fall, *_ = _run(client, skeleton, WORLD_STEP, 1.0, 700.0, 0.0, 12.0, y=5.0)
     print(f"at the world's step: {side:.2f} / {fall:.2f} deg past a limit at worst")
