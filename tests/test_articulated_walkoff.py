@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -16,9 +18,14 @@ DT = 1.0 / 240.0
 DOWN = (CharacterState.FALL, CharacterState.LIE, CharacterState.STAND_UP)
 
 
-def _until(client: int, ch: ArticulatedCharacter, seconds: float, done: list[CharacterState]) -> bool:
+def _until(client: int, ch: ArticulatedCharacter, seconds: float, done: list[CharacterState],
+           worst: list[float] | None = None) -> bool:
+    """Step until ``ch`` is in one of ``done`` (True) or ``seconds`` pass (False); the most any joint went past
+    a limit (degrees) is kept in ``worst[0]``."""
     for _ in range(int(round(seconds / DT))):
         advance(client, [ch], DT)
+        if worst is not None:
+            worst[0] = max(worst[0], math.degrees(ch.limit_excess()))
         if ch.state in done:
             return True
     return False
@@ -30,14 +37,19 @@ def _until(client: int, ch: ArticulatedCharacter, seconds: float, done: list[Cha
                                                 ((-700.0, 0.0, 0.0), True)])
 def test_walks_on_after_getting_up(client: int, force: tuple[float, float, float], face_up: bool) -> None:
     ch = ArticulatedCharacter(client, deepmimic_humanoid(), ArticulatedSpec(), None, (0.0, 0.0), 0.0)
+    worst = [0.0]
     assert not _until(client, ch, 2.0, list(DOWN))
     ch.push("root", force, 0.2)
-    assert _until(client, ch, 3.0, [CharacterState.FALL])
-    assert _until(client, ch, 10.0, [CharacterState.WALK]) and ch.getups == 1
+    assert _until(client, ch, 3.0, [CharacterState.FALL], worst)
+    assert _until(client, ch, 10.0, [CharacterState.WALK], worst) and ch.getups == 1
     assert ch.getup_face_up is face_up
     start = ch.root()[0].copy()
-    fell_again = _until(client, ch, 6.0, list(DOWN))
+    fell_again = _until(client, ch, 6.0, list(DOWN), worst)
     assert not fell_again, f"fell again {ch.t:.2f} s into the run"
+    print(f"at most {worst[0]:.2f} deg past a limit")
+    # the fall, the get-up and the walk on: measured 0.71 / 2.11 / 0.13° past a limit at most (sideways: a hip,
+    # toppling, in the last 1/100 s before the fall); pybullet's limits are soft, see test_articulated_recovery
+    assert worst[0] <= 2.5
     assert float(np.linalg.norm((ch.root()[0] - start)[:2])) > 2.0  # walked on, not stood still
     # the walk-in help stays within its bound: the walking torque limit times walk_in_assist
     s = ch.spec

@@ -16,8 +16,9 @@ loads of 0.5–0.8 once a stride, where at the world's step 0.2–0.5: with the 
 stopped staggering).
 Its joints (``Recovery.brace``): falling or lying, the neck keeps ``recovery_neck_gain`` of its gains (limp,
 a face-down landing bent it 10.5° past its limit) and every joint within ``brace_margin_deg`` of a limit is
-held where it is, that far inside, at ``brace_gain`` (a limp body that stiffens only where it would bend
-past: falls went from 4–5.5° past to under 0.9°); upright or getting up, a joint past a limit is driven
+held where it is, that far inside, at ``brace_gain`` × its gains and torque limit (a limp body that stiffens
+only where it would bend past: falls went from 4–5.5° past to under 0.9°; at 1×, a body lying on its arm
+bent the shoulder 5.8° past its 100 N·m, at 2× 0.7°); upright or getting up, a joint past a limit is driven
 ``limit_stop_inside_deg`` back inside at ``limit_stop_gain`` × its gains and torque limit (a shoulder
 carrying the body in a get-up went 7.4° past at its own 100 N·m).
 It settles once it has walked (not staggered) unpushed, and not walking off from a stand, for
@@ -34,7 +35,7 @@ Measured, ``jostle bench ragdoll --phases 8`` (with ``--recovery-substeps 1`` in
 - pushes survived forward 460 N (220), sideways 400 N (300); get-ups 16 of 16, walk-offs 16 of 16; largest
   assist 300 N (the get-up's lift at its bound) and 300 N·m;
 - the five pushes of tests/test_articulated_recovery.py (taken by stepping each way; falls forward,
-  backward and sideways with the get-up and the walk on): at most 0.0 / 0.0 / 0.81 / 1.04 / 0.62° past.
+  backward and sideways with the get-up and the walk on): at most 0.0 / 0.0 / 0.35 / 1.07 / 0.62° past.
 The walk before a push runs at the world's step: ``cost_ratio_vs_baseline`` (unpushed walking) is unchanged.
 Tried and not kept: 16 substeps (9.2° while staggering, 3.7° falling); falls braced whole (every joint at
 0.5 / 0.3 of its gains: 0 / 6 of 8 get-ups, the body never lying still); ``recovery_cv_sagittal`` 0.2 – 0.5;

@@ -126,7 +126,7 @@ class ArticulatedSpec:
     recovery_neck_gain: float = 1.0
     recovery_stagger_load: float = 1.0
     recovery_recover_load: float = 0.9
-    brace_gain: float = 1.0
+    brace_gain: float = 2.0
     brace_margin_deg: float = 11.5
     limit_stop_gain: float = 3.0
     limit_stop_inside_deg: float = 1.0
