@@ -197,5 +197,8 @@ def test_recovery_fields_are_checked() -> None:
                   "brace_margin_deg"):
         with pytest.raises(ValueError, match=f"^{field}"):
             ArticulatedSpec(**{field: -1.0})  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="^recovery_recover_load: expected above 0 and below recovery_stagger_load=1.0"):
+    with pytest.raises(ValueError, match="^recovery_recover_load: expected below recovery_stagger_load=1.0"):
         ArticulatedSpec(recovery_recover_load=1.2)
+    for field in ("recovery_stagger_load", "recovery_recover_load"):  # a TOML typo is named, not a TypeError
+        with pytest.raises(ValueError, match=f"^{field}"):
+            ArticulatedSpec(**{field: "high"})  # type: ignore[arg-type]

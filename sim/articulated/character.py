@@ -183,7 +183,7 @@ class ArticulatedCharacter:
 
     @property
     def _gains(self) -> ArticulatedSpec:
-        """The spec balance, assist and states use now: the recovery's while it (or the world) steps finer."""
+        """The spec balance, assist and states use: the recovery's while any recovers, else ``Recovery.gains``."""
         return self.recovery.spec if self.stepped_finely else self.recovery.gains(self.spec)
 
     @property

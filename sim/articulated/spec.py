@@ -111,7 +111,7 @@ class ArticulatedSpec:
     getup_place_tilt_deg: float = 45.0
     # recovering from a push (sim.articulated.recovery): the world steps this many times finer from a push, a
     # person's contact, a stagger or a fall on (1: never), until it has walked unpushed for recovery_settle_s,
-    # then recovery_handover_s more with the walking gains; meanwhile foot placement's velocity gains, the
+    # then recovery_handover_s more, its gains blending into the walking ones; meanwhile foot placement's velocity gains, the
     # pelvis torque limit and the state loads are these. Falling or lying, the neck keeps recovery_neck_gain
     # of its gains and every joint within brace_margin_deg of a limit is held where it is at brace_gain; upright
     # or getting up, a joint past a limit is driven limit_stop_inside_deg inside at limit_stop_gain (0: off).
@@ -167,7 +167,8 @@ class ArticulatedSpec:
         gains = [f.name for f in fields(self) if f.name.startswith(("kp_", "kd_", "max_torque_"))]
         _positive(self, "height", "com_height", "control_hz", "gain_scale", *gains, "push_threshold_ns",
                   "stagger_load", "recover_load", "fall_tilt_deg", "fall_height", "ragdoll_gain", "still_speed",
-                  "lie_duration_s", "getup_timeout_s", "getup_place_tilt_deg", "upright_tilt_deg", "upright_height", "getup_grace_s")
+                  "lie_duration_s", "getup_timeout_s", "getup_place_tilt_deg", "upright_tilt_deg", "upright_height", "getup_grace_s",
+                  "recovery_stagger_load", "recovery_recover_load")
         _non_negative(self, "cd_sagittal", "cv_sagittal", "cd_coronal", "cv_coronal", "torso_kp", "torso_kd",
                       "stance_hip_gain", "stagger_stance_hip_gain", "stagger_hurry", "ankle_gain", "ankle_gain_coronal",
                       "assist_torque_max_nm", "assist_force_max_n",
@@ -183,8 +184,8 @@ class ArticulatedSpec:
             raise ValueError(f"stagger_hurry_max: expected a number >= 1, got {self.stagger_hurry_max!r}")
         if not self.recover_load < self.stagger_load:
             raise ValueError(f"recover_load: expected < stagger_load={self.stagger_load}, got {self.recover_load}")
-        if not 0 < self.recovery_recover_load < self.recovery_stagger_load:
-            raise ValueError(f"recovery_recover_load: expected above 0 and below recovery_stagger_load="
+        if not self.recovery_recover_load < self.recovery_stagger_load:
+            raise ValueError(f"recovery_recover_load: expected below recovery_stagger_load="
                              f"{self.recovery_stagger_load}, got {self.recovery_recover_load}")
         if not 0 < self.fall_tilt_deg < 90 or not self.upright_tilt_deg < self.fall_tilt_deg:
             raise ValueError(f"fall_tilt_deg: expected between upright_tilt_deg={self.upright_tilt_deg} and 90, "
