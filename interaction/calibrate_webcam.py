@@ -31,7 +31,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from interaction.calibration import Calibration, CalibrationError
+from interaction.calibration import Calibration, CalibrationError, round_off_zeros
 
 __all__ = [
     "BoardPlacement",
@@ -234,7 +234,7 @@ def fit_calibration(
     else:
         h, focal = floor_to_upright(plane_fit.matrix, image_size, placement.plane_y)
     try:
-        cal = Calibration(tuple(float(x) for x in (h / h[2, 2]).ravel()), placement.plane_y, placement.half_depth,
+        cal = Calibration(tuple(float(x) for x in round_off_zeros(h / h[2, 2]).ravel()), placement.plane_y, placement.half_depth,
                           image_size)
     except ValueError as e:
         raise CalibrationRefused(f"the fitted homography cannot be used ({e}): move the camera or the board so "

@@ -109,7 +109,7 @@ class Calibration:
         hn = vt[-1].reshape(3, 3)
         h = np.linalg.inv(td) @ hn @ ts
         h = h / h[2, 2] if abs(h[2, 2]) > 1e-12 else h / np.linalg.norm(h)
-        return cls(tuple(float(x) for x in h.ravel()), plane_y, half_depth, image_size)
+        return cls(tuple(float(x) for x in round_off_zeros(h).ravel()), plane_y, half_depth, image_size)
 
     # ------------------------------------------------------------ mapping
 
@@ -218,6 +218,17 @@ class Calibration:
 
 
 # ---------------------------------------------------------------- internals
+
+
+def round_off_zeros(h: np.ndarray) -> np.ndarray:
+    """``h`` with every entry within 1e-12 of its largest magnitude set to exactly 0.0 (not -0.0).
+
+    Such an entry is zero up to round-off, and its last bits differ between CPUs and BLAS kernels
+    (3.66e-19 on one machine, 5.36e-19 on another): a homography that is computed and then saved
+    holds 0 instead, so the file is the same wherever it was made (DESIGN.md §8)."""
+    m = np.asarray(h, dtype=np.float64)
+    scale = float(np.max(np.abs(m))) if m.size else 0.0
+    return np.where(np.abs(m) <= 1e-12 * scale, 0.0, m)
 
 
 def _is_number(x: object) -> bool:

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from interaction.calibration import round_off_zeros
+
 
 @dataclass(frozen=True)
 class PinholeCamera:
@@ -94,7 +96,7 @@ class PinholeCamera:
         offset = np.array([0.0, plane_y, 0.0]) - self.centre
         plane_to_image = np.column_stack([kr[:, 0], kr[:, 2], kr @ offset])
         h = np.linalg.inv(plane_to_image)
-        return h / h[2, 2]
+        return round_off_zeros(h / h[2, 2])  # the same file on every CPU (no 1e-19 round-off entries)
 
     # ------------------------------------------------------------ pybullet
 
