@@ -34,9 +34,9 @@ from sim.snapshot import WorldSnapshot
 from sim.world import World
 
 if TYPE_CHECKING:
-    from render.draw import Renderer
+    from render.gl.renderer import Renderer
+    from render.gl.video import VideoOut
     from render.keyframes import KeyframeSet
-    from render.video import VideoOut
 
 log = logging.getLogger("jostle")
 
@@ -114,9 +114,9 @@ class App:
         self.terrain: TerrainWiring | None = None  # [terrain]: the cubes people build (filled by run())
 
     def run(self) -> RunSummary:
-        from render.draw import Renderer
+        from render.gl.renderer import Renderer
+        from render.gl.video import VideoOut
         from render.keyframes import KeyframeSet
-        from render.video import VideoOut
 
         cfg = self.config
         opts = self.options
@@ -143,7 +143,7 @@ class App:
             self.summary.characters = place_characters(cfg, world, self.seed)
             self.terrain = attach_terrain(cfg, world)  # the layout built; None without [terrain]
             self.summary.characters += len(cfg.quadrupeds)  # (they need [terrain]: stood on it just above)
-            from render.style import RenderStyle
+            from render.gl.style import RenderStyle
 
             renderer = Renderer(
                 cfg.render.width,

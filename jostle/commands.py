@@ -83,7 +83,7 @@ def _execute(config_path: Path, args: argparse.Namespace, *, override_recording:
 
         config = replace_sensors_with_recording(config, override_recording)
     if args.mode != "headless":
-        from render.draw import display_available
+        from render.gl.renderer import display_available
 
         if not display_available():
             from jostle.cli import UsageError

@@ -26,7 +26,7 @@ from jostle.observers import observer_types
 from jostle.operations_config import HealthConfig, KioskConfig
 from jostle.session_recording import SessionRecordConfig
 from jostle.terrain_layout import QuadrupedGroup, QuadrupedTable, TerrainSection
-from render.style import Camera, Colours, Look
+from render.gl.style import Camera, Colours, Look
 from sensors.registry import SENSOR_TYPES
 from sim.articulated.spec import ArticulatedSpec
 from sim.config import CharacterSpec, WorldConfig

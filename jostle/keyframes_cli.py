@@ -106,7 +106,7 @@ def _manifest(path: Path) -> Path:
 
 
 def cmd_build_default(args: argparse.Namespace) -> int:
-    from render.default_set import SETS, build_set
+    from render.keyframes.default_set import SETS, build_set
 
     for name, (figure, cycle) in SETS.items():
         if args.set in ("all", name):
@@ -115,7 +115,7 @@ def cmd_build_default(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from render.keyframe_check import check_set
+    from render.keyframes.set_check import check_set
 
     report = check_set(args.set)
     if args.json:
@@ -130,8 +130,8 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_preview(args: argparse.Namespace) -> int:
+    from render.gl.preview import contact_sheet, sweep
     from render.keyframes import KeyframeSet
-    from render.preview import contact_sheet, sweep
 
     kset = KeyframeSet.load(_manifest(args.set))
     tiles = contact_sheet(kset, args.out / "contact_sheet.png")
@@ -168,12 +168,12 @@ def _at(text: str) -> dict[str, float | str]:
 
 
 def cmd_import(args: argparse.Namespace) -> int:
-    from render.keyframe_import import Placement, import_clip
+    from render.keyframes.clip_import import Placement, import_clip
 
     manifest = None
     for f in args.files:
         if f.suffix.lower() in (".gltf", ".glb"):
-            from render.gltf_io import import_gltf
+            from render.keyframes.gltf_io import import_gltf
 
             manifest = import_gltf(f, args.into)
         else:
@@ -188,8 +188,8 @@ def cmd_import(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from render.gltf_io import export_gltf
     from render.keyframes import KeyframeSet
+    from render.keyframes.gltf_io import export_gltf
 
     path = export_gltf(KeyframeSet.load(_manifest(args.set)), args.out)
     print(f"jostle: wrote {path}", file=sys.stderr)

@@ -23,7 +23,7 @@ from jostle.health import ErrorRing, Health
 from jostle.health_report import HealthFile, HealthServer
 from jostle.operations_config import Mode
 from jostle.sdnotify import Heartbeat, Notifier, watchdog_interval
-from render.overlays import Captions
+from render.gl.overlays import Captions
 from sensors.base import Sensor
 from sim.snapshot import WorldSnapshot
 from sim.world import World

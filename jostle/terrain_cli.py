@@ -75,10 +75,10 @@ def _draw(cfg: Any, heights: np.ndarray, out: Path) -> None:
     import cv2
 
     from jostle.config import ConfigError
-    from render.draw import Renderer
+    from render.gl.renderer import Renderer
+    from render.gl.style import RenderStyle
+    from render.gl.terrain import TerrainView
     from render.keyframes import KeyframeSet
-    from render.style import RenderStyle
-    from render.terrain import TerrainView
     from sim.snapshot import WorldSnapshot
 
     g = cfg.terrain.floor_grid

@@ -28,7 +28,7 @@ from interaction.terrain_cells import CellReport, PlacementRequest, TerrainObser
 from interaction.types import BodyObservation
 from jostle.config import JostleConfig
 from jostle.terrain_layout import TerrainSection
-from render.terrain import TerrainView
+from render.gl.terrain import TerrainView
 from sensors.base import Frame
 from sim.quadruped.grid import Placement, TerrainConfig, TerrainGrid
 from sim.world import World

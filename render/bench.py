@@ -72,7 +72,7 @@ def _tilted(heading: float, tx: float, tz: float) -> tuple[float, float, float, 
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from render.draw import Renderer
+    from render.gl.renderer import Renderer
     from render.keyframes import KeyframeSet
 
     n, frames = int(args.characters), int(args.frames)
@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError("characters: expected ≥ 0 and frames ≥ 1")
     kset = KeyframeSet.load(args.keyframes)
     snaps = [scene(n, args.seed, 0.05 * i) for i in range(8)]
-    from render.style import Look, RenderStyle
+    from render.gl.style import Look, RenderStyle
 
     style = RenderStyle(look=Look(render_scale=float(args.scale)))
     with Renderer(args.width, args.height, headless=True, style=style) as renderer:

@@ -62,7 +62,7 @@ def test_demo_produces_pushes_and_real_pixels(tmp_path: Path) -> None:
     assert ok and first.shape == (180, 320, 3)
 
     # real pixels: the characters' pixels differ from the same scene drawn without them
-    from render.draw import Renderer
+    from render.gl.renderer import Renderer
     from render.keyframes import KeyframeSet
 
     snap, obs, image = frames[-1]

@@ -56,7 +56,7 @@ def test_imports_flow_left_to_right(pkg: str) -> None:
 
 def test_the_checker_catches_a_wrong_import(tmp_path: Path) -> None:
     bad = tmp_path / "m.py"
-    bad.write_text("def f():\n    from render.draw import Renderer\n    import jostle.app\n")
+    bad.write_text("def f():\n    from render.gl.renderer import Renderer\n    import jostle.app\n")
     heads = [m.split(".")[0] for _, m in _imports(bad)]
     assert heads == ["render", "jostle"]
 

@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from render.default_set import build_default_sets
-from render.interp import STANDARD_AXES as AXES
-from render.interp import Curve
 from render.keyframes import KeyframeError, KeyframeQuery, KeyframeSet, Pose, query_from_snapshot
+from render.keyframes.default_set import build_default_sets
+from render.keyframes.interp import STANDARD_AXES as AXES
+from render.keyframes.interp import Curve
 from sim.snapshot import CharacterSnapshot, CharacterState
 
 SHIPPED = Path(__file__).resolve().parent.parent / "configs" / "keyframes" / "humanoid" / "keyframes.toml"

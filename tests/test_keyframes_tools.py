@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from jostle.cli import main
-from render.bvh import bvh_to_clip, read_bvh
-from render.gltf_io import export_gltf, import_gltf
-from render.keyframe_check import check_set
-from render.keyframe_import import Placement, import_clip
 from render.keyframes import KeyframeQuery, KeyframeSet
+from render.keyframes.bvh import bvh_to_clip, read_bvh
+from render.keyframes.clip_import import Placement, import_clip
+from render.keyframes.gltf_io import export_gltf, import_gltf
+from render.keyframes.set_check import check_set
 from sim.motion import quaternion as quat
 from sim.motion.mocap import HUMANOID, JOINTS, MotionClip, pybullet_motion_path
 
@@ -274,7 +274,7 @@ def test_bvh_is_read_and_retargeted_by_bone_directions(tmp_path: Path) -> None:
 
 
 def test_import_errors_are_one_line(tmp_path: Path) -> None:
-    from render.keyframe_file import KeyframeError
+    from render.keyframes.set_file import KeyframeError
     from sim.motion.mocap import MotionFileError
 
     bad = tmp_path / "bad.bvh"
@@ -293,7 +293,7 @@ def test_import_errors_are_one_line(tmp_path: Path) -> None:
 def test_preview_writes_a_labelled_contact_sheet_and_a_sweep(tmp_path: Path) -> None:
     import cv2
 
-    from render.preview import TILE, contact_sheet, sweep
+    from render.gl.preview import TILE, contact_sheet, sweep
 
     kset = KeyframeSet.load(speed_set(tmp_path))
     tiles = contact_sheet(kset, tmp_path / "out" / "contact_sheet.png", columns=2)

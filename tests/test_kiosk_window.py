@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parent.parent
 CHILD = r"""
 import json, sys, time
 from render.bench import scene
-from render.draw import Renderer
+from render.gl.renderer import Renderer
 from render.keyframes import KeyframeSet
 
 kset = KeyframeSet.load(sys.argv[1])

@@ -1,4 +1,4 @@
-"""Articulated characters are drawn from their link transforms (render.links), headless, real pixels.
+"""Articulated characters are drawn from their link transforms (render.gl.links), headless, real pixels.
 
 The links come from a real pybullet body (the DeepMimic humanoid, lying on its back along stage x) while
 the snapshot's position and orientation say "upright": a keyframe figure would stand, the links lie.
@@ -14,10 +14,10 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from render.draw import Renderer
+from render.gl.links import articulated_part, link_capsules, link_figure, link_figure_for
+from render.gl.renderer import Renderer
+from render.gl.style import Camera, Colours
 from render.keyframes import KeyframeSet
-from render.links import articulated_part, link_capsules, link_figure, link_figure_for
-from render.style import Camera, Colours
 from sim.articulated.build import build_multibody, source_to_stage
 from sim.articulated.skeleton import deepmimic_humanoid
 from sim.motion import quaternion as quat
@@ -82,7 +82,7 @@ def test_capsules_follow_the_links(lying_links: tuple[LinkPose, ...]) -> None:
     assert ends[:, 2].max() < 0.45  # lying: nothing higher than a body's depth
     span = ends[:, 0].max() - ends[:, 0].min()
     assert 1.2 < span < 1.8  # head to feet along stage x
-    # links of no known skeleton are left to render.link_figures (a stick figure): still drawn
+    # links of no known skeleton are left to render.gl.link_figures (a stick figure): still drawn
     assert link_figure_for(("a", "b")) is None
     other = character("odd", links=(LinkPose("a", (0, 0, 0.5), (0, 0, 0, 1)), LinkPose("b", (0, 0, 1), (0, 0, 0, 1))))
     sel, a2, _, _, _ = articulated_part([other, ragdoll(lying_links)], np.array([3, 1]), Colours(), 300.0)
@@ -115,7 +115,7 @@ def test_headless_render_shows_the_character_where_its_links_are(
 def test_a_registered_bvh_body_is_drawn_along_its_bones(tmp_path: Path) -> None:
     from test_bvh_body import bvh_from_clip
 
-    from render.links import register_link_skeleton
+    from render.gl.links import register_link_skeleton
     from sim.articulated.bvh_body import bvh_body
     from sim.motion.bvh import read_bvh
 

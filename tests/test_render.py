@@ -16,10 +16,10 @@ import pytest
 from PIL import Image, ImageSequence
 
 from interaction.types import BodyObservation, Contactor
-from render.draw import Renderer
+from render.gl.renderer import Renderer
+from render.gl.style import Camera
+from render.gl.video import VideoError, VideoOut, save_gif
 from render.keyframes import KeyframeSet
-from render.style import Camera
-from render.video import VideoError, VideoOut, save_gif
 from sim.snapshot import CharacterSnapshot, CharacterState, WorldSnapshot
 
 SHIPPED = Path(__file__).resolve().parent.parent / "configs" / "keyframes" / "humanoid" / "keyframes.toml"
@@ -191,7 +191,7 @@ def test_close_twice_and_draw_after_close(kset: KeyframeSet) -> None:
 
 def test_window_mode_without_a_display_says_so() -> None:
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    code = "from render.draw import Renderer\nRenderer(headless=False)"
+    code = "from render.gl.renderer import Renderer\nRenderer(headless=False)"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60)
     assert out.returncode != 0
     assert "RendererUnavailable: render: no display for a window (DISPLAY is not set)" in out.stderr
@@ -263,7 +263,7 @@ def test_silhouette_is_drawn_on_the_stage_where_the_calibration_puts_it(renderer
 
 
 def test_a_flash_where_a_contact_lands_then_fades(kset: KeyframeSet) -> None:
-    from render.style import Look, RenderStyle
+    from render.gl.style import Look, RenderStyle
 
     hand = BodyObservation(t=0.0, contactors=(Contactor(0, "hand", (0.45, 0.0, 1.1), (0.0, 0.0, 0.0), 0.12),))
     with Renderer(W, H, style=RenderStyle(look=Look(flash_s=0.3))) as r:
@@ -279,7 +279,7 @@ def test_a_flash_where_a_contact_lands_then_fades(kset: KeyframeSet) -> None:
 
 
 def test_hud_shows_the_figures(kset: KeyframeSet) -> None:
-    from render.style import Look, RenderStyle
+    from render.gl.style import Look, RenderStyle
 
     with Renderer(W, H, style=RenderStyle(look=Look(hud=True))) as r:
         with_hud = r.draw(world(character()), None, kset)
@@ -311,7 +311,7 @@ def test_bench_render_reports_its_figures() -> None:
 
 
 def test_a_smaller_render_scale_draws_the_same_picture_softer(kset: KeyframeSet) -> None:
-    from render.style import Look, RenderStyle
+    from render.gl.style import Look, RenderStyle
 
     snap = world(character(x=-1.0), character("bob", x=1.2, y=0.5, heading=2.5))
     with Renderer(W, H, style=RenderStyle(look=Look(render_scale=0.5))) as r:
@@ -327,7 +327,7 @@ def test_a_smaller_render_scale_draws_the_same_picture_softer(kset: KeyframeSet)
 
 
 def test_style_errors_name_the_field() -> None:
-    from render.style import Colours, Look
+    from render.gl.style import Colours, Look
 
     with pytest.raises(ValueError, match=r"^eye: expected 3 finite numbers"):
         Camera(eye=(0.0, 1.0))

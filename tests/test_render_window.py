@@ -15,7 +15,7 @@ SCRIPT = r"""
 import sys, numpy as np
 from pyglet import gl
 from render.bench import scene
-from render.draw import Renderer
+from render.gl.renderer import Renderer
 from render.keyframes import KeyframeSet
 
 kset = KeyframeSet.load(sys.argv[1])

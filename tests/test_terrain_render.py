@@ -1,4 +1,4 @@
-"""render.terrain: the cubes are drawn where the grid says (real headless pixels, EGL/llvmpipe)."""
+"""render.gl.terrain: the cubes are drawn where the grid says (real headless pixels, EGL/llvmpipe)."""
 
 from __future__ import annotations
 
@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from render.draw import Renderer
+from render.gl.link_figures import link_capsules
+from render.gl.renderer import Renderer
+from render.gl.style import Camera
+from render.gl.terrain import COLUMN_FLOATS, TerrainView, column_instances
 from render.keyframes import KeyframeSet
-from render.link_figures import link_capsules
-from render.style import Camera
-from render.terrain import COLUMN_FLOATS, TerrainView, column_instances
 from sim.snapshot import CharacterSnapshot, CharacterState, LinkPose, WorldSnapshot
 
 SHIPPED = Path(__file__).resolve().parent.parent / "configs" / "keyframes" / "humanoid" / "keyframes.toml"

@@ -4,7 +4,7 @@ A BVH file is a joint hierarchy (OFFSET, CHANNELS, nested JOINT / End Site) and 
 frames, each the channel values in hierarchy order (positions in the file's units, rotations in
 degrees, applied in the order the channels are listed: ``Zrotation Yrotation Xrotation`` means
 R = Rz·Ry·Rx, the X turn applied to a vector first). Nothing here assumes an up axis, units or rest
-pose; that is for the user of the motion (``render.bvh`` retargets it onto a figure,
+pose; that is for the user of the motion (``render.keyframes.bvh`` retargets it onto a figure,
 ``sim.articulated.bvh_body`` builds a body from it).
 
 End sites are kept as joints named ``<parent>_end`` with no channels.

@@ -2,7 +2,7 @@
 
 A pose table holds ``root_offset`` (3 numbers, metres), ``root_rotation`` and a ``joints`` table;
 a rotation is a quaternion ``[x, y, z, w]``, an axis-angle ``{ axis = [x, y, z], degrees = d }``, or
-for hinges (knees, elbows) a number of degrees about the hinge's z axis. See ``keyframe_file``.
+for hinges (knees, elbows) a number of degrees about the hinge's z axis. See ``render.keyframes.set_file``.
 """
 
 from __future__ import annotations

@@ -17,12 +17,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from render.draw import Renderer
+from render.gl.renderer import Renderer
+from render.gl.scene import body_rotations, posed_capsules
+from render.gl.style import Camera, RenderStyle
+from render.gl.video import VideoOut, save_gif
 from render.keyframes import KeyframeSet
-from render.scene import body_rotations, posed_capsules
-from render.skeletons import figure_for
-from render.style import Camera, RenderStyle
-from render.video import VideoOut, save_gif
+from render.keyframes.skeletons import figure_for
 from sim.motion import quaternion as quat
 from sim.snapshot import CharacterSnapshot, CharacterState, WorldSnapshot
 

@@ -7,7 +7,7 @@ Two kinds of drawing, chosen per character by its link names:
   is drawn with one impostor capsule per link exactly where the sim's collision shape of that link is,
   from the link's frame (a sphere is a capsule of zero length; a box the capsule along its longest side,
   as thick as its middle side); materials by body part: shirt, trousers, skin, shoes;
-- anything else with links (quadrupeds, unknown skeletons) goes to ``render.link_figures`` (helper H2:
+- anything else with links (quadrupeds, unknown skeletons) goes to ``render.gl.link_figures`` (helper H2:
   capsules between link origins by kind, or a stick figure).
 
 Shirt colours are by the character's place in the snapshot, as for keyframe figures.
@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from render.link_figures import Part, figure_part
-from render.scene import character_colours, figure_colours
-from render.skeletons import SHIRT, SHOES, SKIN, TROUSERS
-from render.style import Colours
+from render.gl.link_figures import Part, figure_part
+from render.gl.scene import character_colours, figure_colours
+from render.gl.style import Colours
+from render.keyframes.skeletons import SHIRT, SHOES, SKIN, TROUSERS
 from sim.articulated.bvh_body import body_part
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.motion import quaternion as quat
@@ -153,7 +153,7 @@ def _skeleton_part(chars: Sequence[CharacterSnapshot], sel: np.ndarray, colours:
 def articulated_part(chars: Sequence[CharacterSnapshot], sel: np.ndarray, colours: Colours,
                      flash_newtons: float) -> Part:
     """(sel, a, b, r, colours) for the characters ``chars`` (all with links; ``sel`` their places in the
-    snapshot): known skeletons capsule per link, the rest through ``render.link_figures``."""
+    snapshot): known skeletons capsule per link, the rest through ``render.gl.link_figures``."""
     sel = np.asarray(sel, dtype=int)
     known = np.array([link_figure_for(tuple(lk.name for lk in c.links)) is not None for c in chars], dtype=bool)
     parts = []

@@ -5,7 +5,7 @@
   coordinates (``--keys N`` evenly spaced over the clip; along Dx/Dz at k/N, along Θ evenly over
   ``--range``; or ``--frames`` with ``--coords``);
 - glTF 2.0: every animation that carries ``extras.jostle`` (written by ``jostle keyframes export``, or
-  by hand in Blender's custom properties) — see ``render.gltf_io``.
+  by hand in Blender's custom properties) — see ``render.keyframes.gltf_io``.
 
 Each key is placed in its rigid body's frame: the body tilted by the key's Θ (when the animation runs
 along Θ) and turned to the clip's heading, the skeleton's centre of mass at the body origin. The poses
@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from render.keyframe_file import FORMAT, KeyframeError
-from render.pose_text import format_pose
-from render.skeleton_pose import X, in_body_frame, standing_height, tilt_rotation, yaw_rotation
-from render.skeletons import FIGURES, Figure
+from render.keyframes.pose_text import format_pose
+from render.keyframes.set_file import FORMAT, KeyframeError
+from render.keyframes.skeleton_pose import X, in_body_frame, standing_height, tilt_rotation, yaw_rotation
+from render.keyframes.skeletons import FIGURES, Figure
 from sim.motion import quaternion as quat
 from sim.motion.mocap import MotionClip
 
@@ -46,7 +46,7 @@ class Placement:
 def load_clip(path: Path, figure: Figure) -> MotionClip:
     """A DeepMimic JSON clip (``.txt``/``.json``) or a BVH file (``.bvh``), on ``figure``'s skeleton."""
     if path.suffix.lower() == ".bvh":
-        from render.bvh import bvh_to_clip, read_bvh
+        from render.keyframes.bvh import bvh_to_clip, read_bvh
 
         return bvh_to_clip(read_bvh(path), figure, path.stem)
     return MotionClip.load(path)
@@ -152,7 +152,7 @@ def add_animation(set_dir: Path, placement: Placement, keys: list[tuple[float, s
     if not check:
         return manifest
     try:
-        from render.keyframes import KeyframeSet
+        from render.keyframes.keyframe_set import KeyframeSet
 
         KeyframeSet.load(manifest)
     except KeyframeError:

@@ -1,6 +1,6 @@
 """``jostle keyframes check``: every problem of a keyframe set at once, each naming its file and animation.
 
-The loader (``render.keyframe_file``) stops at the first error; this reads the same files tolerantly
+The loader (``render.keyframes.set_file``) stops at the first error; this reads the same files tolerantly
 and reports all it finds, then — when the set loads — what only a loaded set shows:
 
 - ``unknown-joint``: a pose rotates a joint the skeleton does not have;
@@ -26,8 +26,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from render.interp import STANDARD_AXES
-from render.keyframe_file import KeyframeError
+from render.keyframes.interp import STANDARD_AXES
+from render.keyframes.set_file import KeyframeError
 from sim.motion.mocap import JOINTS
 
 THETA_GAP = 0.8  # radians between neighbouring keys along Θ
@@ -189,7 +189,7 @@ def _gaps(coords: list[float], axis: str, periodic: bool, name: str, file: str, 
 
 
 def _loaded_checks(path: Path, report: CheckReport, problem: Any) -> None:
-    from render.keyframes import KeyframeSet
+    from render.keyframes.keyframe_set import KeyframeSet
 
     try:
         kset = KeyframeSet.load(path)

@@ -16,7 +16,7 @@ z right): the renderer places it with the body's position and orientation and sc
 character's height. In the shipped sets the root offset puts the skeleton's centre of mass at the
 body's origin (the sim's centre of mass).
 
-How poses are interpolated is in ``render.interp``; the file format in ``render.keyframe_file``.
+How poses are interpolated is in ``render.keyframes.interp``; the file format in ``render.keyframes.set_file``.
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from render.interp import BehaviourTable, Curve, Family, Space, meeting_points
-from render.keyframe_file import KeyframeError, SetData, read_set
+from render.keyframes.interp import BehaviourTable, Curve, Family, Space, meeting_points
+from render.keyframes.set_file import KeyframeError, SetData, read_set
 from sim.motion import quaternion as quat
 from sim.motion.mocap import JOINTS, Skeleton
 from sim.snapshot import CharacterSnapshot

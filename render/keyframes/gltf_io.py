@@ -26,10 +26,10 @@ from typing import Any
 
 import numpy as np
 
-from render.keyframe_file import KeyframeError
-from render.keyframe_import import Placement, add_animation
-from render.keyframes import KeyframeSet
-from render.skeletons import figure_for
+from render.keyframes.clip_import import Placement, add_animation
+from render.keyframes.keyframe_set import KeyframeSet
+from render.keyframes.set_file import KeyframeError
+from render.keyframes.skeletons import figure_for
 from sim.motion import quaternion as quat
 from sim.motion.gltf_file import save_gltf
 from sim.motion.mocap import JOINTS

@@ -145,4 +145,4 @@ def figure_for(skeleton: Skeleton) -> Figure:
     for f in FIGURES.values():
         if f.skeleton is skeleton:
             return f
-    raise KeyError("render: no figure for this skeleton; add one to render.skeletons.FIGURES")
+    raise KeyError("render: no figure for this skeleton; add one to render.keyframes.skeletons.FIGURES")

@@ -12,9 +12,9 @@ import cv2
 import numpy as np
 
 from interaction.calibration import Calibration
-from render.effects import Hud
-from render.glcontext import attribute, gen, uniform, uniform_matrix, upload
-from render.style import RenderStyle, rgb
+from render.gl.context import attribute, gen, uniform, uniform_matrix, upload
+from render.gl.effects import Hud
+from render.gl.style import RenderStyle, rgb
 
 
 @dataclass(frozen=True)

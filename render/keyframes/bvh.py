@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from render.skeletons import HUMANOID_FIGURE, Figure
+from render.keyframes.skeletons import HUMANOID_FIGURE, Figure
 from sim.motion import quaternion as quat
 from sim.motion.bvh import BvhMotion, read_bvh
 from sim.motion.mocap import JOINTS, MotionClip, MotionFileError

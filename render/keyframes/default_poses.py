@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from render.skeleton_pose import (
+from render.keyframes.skeleton_pose import (
     X,
     Z,
     centre_of_mass,
@@ -33,7 +33,7 @@ from render.skeleton_pose import (
     tilt_rotation,
     yaw_rotation,
 )
-from render.skeletons import Figure
+from render.keyframes.skeletons import Figure
 from sim.motion import quaternion as quat
 from sim.motion.mocap import HUMANOID, JOINTS, MotionClip, pybullet_motion_path
 

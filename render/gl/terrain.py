@@ -18,8 +18,8 @@ from types import ModuleType
 
 import numpy as np
 
-from render.glcontext import attribute, compile_program, gen, uniform, uniform_matrix, upload
-from render.shaders import _LIGHT, order_define
+from render.gl.context import attribute, compile_program, gen, uniform, uniform_matrix, upload
+from render.gl.shaders import _LIGHT, order_define
 
 __all__ = ["COLUMN_FLOATS", "TerrainLayer", "TerrainView", "column_instances", "pending_instances"]
 

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from render.scene import CAPSULE_FLOATS, character_colours
-from render.style import Colours, rgb
+from render.gl.scene import CAPSULE_FLOATS, character_colours
+from render.gl.style import Colours, rgb
 from sim.snapshot import CharacterSnapshot
 
 __all__ = ["LINK_FIGURES", "LinkCapsule", "LinkFigure", "figure_part", "link_capsules", "link_instances"]

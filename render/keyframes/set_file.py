@@ -3,7 +3,7 @@
 Manifest::
 
     format = 1
-    skeleton = "humanoid"          # the skeleton the poses drive: humanoid | critter (render.skeletons)
+    skeleton = "humanoid"          # the skeleton the poses drive: humanoid | critter (render.keyframes.skeletons)
     height = 1.62                  # soles to head top when standing, in the poses' metres
     default_behaviour = "walk"     # used for a behaviour B the set does not have (one warning)
     poses = ["poses/walk.toml"]    # pose files, relative to this file
@@ -12,7 +12,7 @@ Manifest::
     cycle_weight = 0.5             # radians of tilt that weigh as much as a whole Dx/Dz cycle
     sharpness = 2.0                # exponent of the inverse-distance weights between families
 
-    [dimensions.speed]             # optional: more coordinates of Q (see render.keyframes.EXTRA_AXES)
+    [dimensions.speed]             # optional: more coordinates of Q (see render.keyframes.keyframe_set.EXTRA_AXES)
     scale = 0.5                    # radians of tilt that weigh as much as one unit of it
     min = 0.0                      # queries are clamped to [min, max]
     max = 1.2
@@ -54,9 +54,9 @@ from typing import Any
 
 import numpy as np
 
-from render.interp import STANDARD_AXES, Curve, Family, Space
-from render.pose_text import number, parse_pose
-from render.skeletons import SKELETONS
+from render.keyframes.interp import STANDARD_AXES, Curve, Family, Space
+from render.keyframes.pose_text import number, parse_pose
+from render.keyframes.skeletons import SKELETONS
 from sim.motion.mocap import JOINTS, Skeleton
 
 FORMAT = 1

@@ -22,9 +22,8 @@ import numpy as np
 
 from interaction.calibration import Calibration
 from interaction.types import BodyObservation
-from render import shaders
-from render.effects import FLASH_FLOATS, BehaviourFade, Flashes, Hud
-from render.glcontext import (
+from render.gl import shaders
+from render.gl.context import (
     Framebuffer,
     RendererUnavailable,
     attribute,
@@ -37,10 +36,10 @@ from render.glcontext import (
     uniform_matrix,
     upload,
 )
-from render.keyframes import KeyframeSet
-from render.links import articulated_part, merge_parts
-from render.overlays import Captions, Overlays
-from render.scene import (
+from render.gl.effects import FLASH_FLOATS, BehaviourFade, Flashes, Hud
+from render.gl.links import articulated_part, merge_parts
+from render.gl.overlays import Captions, Overlays
+from render.gl.scene import (
     BLOB_FLOATS,
     CAPSULE_FLOATS,
     SHADOW_FLOATS,
@@ -53,11 +52,12 @@ from render.scene import (
     posed_capsules,
     shadow_blobs,
 )
-from render.skeleton_pose import com_fraction as set_com_fraction
-from render.skeletons import figure_for
-from render.style import Camera, RenderStyle, rgb
-from render.terrain import TerrainLayer, TerrainView
-from render.window_keys import WindowKeys
+from render.gl.style import Camera, RenderStyle, rgb
+from render.gl.terrain import TerrainLayer, TerrainView
+from render.gl.window_keys import WindowKeys
+from render.keyframes import KeyframeSet
+from render.keyframes.skeleton_pose import com_fraction as set_com_fraction
+from render.keyframes.skeletons import figure_for
 from sim.snapshot import CharacterSnapshot, WorldSnapshot
 
 __all__ = ["Renderer", "RendererUnavailable", "display_available"]
@@ -76,7 +76,7 @@ class Renderer:
 
     ``headless`` draws off screen (EGL); otherwise a window opens (``fullscreen``: the whole screen,
     cursor hidden — the kiosk) and ``draw`` also shows each frame there, letterboxed.
-    ``style``: camera, colours and what is drawn (``render.style``); ``camera``/``samples``/
+    ``style``: camera, colours and what is drawn (``render.gl.style``); ``camera``/``samples``/
     ``flash_newtons`` override it. ``com_fraction``: height of the sim body's centre of mass above its
     base over its height (``CharacterSpec.com_height / height``), so the figures' feet meet the floor;
     one for all, or by character name or kind (key ``"*"`` for the rest).
@@ -209,7 +209,7 @@ class Renderer:
         gl.glDepthFunc(gl.GL_LESS)
         gl.glDisable(gl.GL_BLEND)
         self._draw_quads("CAPSULE", self._figures_vao, instances, vp)
-        if terrain is not None:  # the cubes people build (render.terrain)
+        if terrain is not None:  # the cubes people build (render.gl.terrain)
             self._terrain = self._terrain or TerrainLayer(gl, self.headless)
             self._terrain.draw(terrain, vp, self.camera.eye)
         gl.glFlush()  # the figures are drawn while their shadows and contacts are worked out here

@@ -15,9 +15,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from interaction.types import BodyObservation
+from render.gl.style import Camera, Colours, rgb
 from render.keyframes import Pose
-from render.skeletons import SHIRT, Figure
-from render.style import Camera, Colours, rgb
+from render.keyframes.skeletons import SHIRT, Figure
 from sim.motion import quaternion as quat
 from sim.snapshot import CharacterSnapshot, CharacterState
 
