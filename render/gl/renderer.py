@@ -2,18 +2,18 @@
 or full screen (kiosk).
 
 Each character is 18 capsules posed by its keyframe set at its point of Q, placed in its rigid
-body's frame (position = centre of mass, orientation) and scaled to its height; shirts coloured per
-character, tinted red while pushed, with a flash where the contact lands. Capsules are impostors
-(one quad each, ray-cast per fragment), all characters in one instanced draw. Under each figure a
-soft shadow and a contact shadow under every limb near the floor. The people: their contactors as
-translucent capsules and/or their silhouette drawn on the calibrated stage plane. The stage (floor
-with grid, playable area, back wall) is drawn once per camera and copied; one upload per kind of
-instance per frame; read back as GL_RGBA. Rendering never steps the sim: it draws the snapshot given.
+body's frame (position = centre of mass, orientation) and scaled to its height (``render.gl.figures``);
+shirts coloured per character, tinted red while pushed, with a flash where the contact lands.
+Capsules are impostors (one quad each, ray-cast per fragment), all characters in one instanced draw.
+Under each figure a soft shadow and a contact shadow under every limb near the floor. The people:
+their contactors as translucent capsules and/or their silhouette drawn on the calibrated stage plane.
+The stage (floor with grid, playable area, back wall) is drawn once per camera and copied; one upload
+per kind of instance per frame; read back as GL_RGBA. Rendering never steps the sim: it draws the
+snapshot given.
 """
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Mapping, Sequence
 from types import ModuleType
 
@@ -36,29 +36,22 @@ from render.gl.context import (
     uniform_matrix,
     upload,
 )
-from render.gl.effects import FLASH_FLOATS, BehaviourFade, Flashes, Hud
-from render.gl.links import articulated_part, merge_parts
+from render.gl.effects import FLASH_FLOATS, Flashes, Hud
+from render.gl.figures import Figures, Sets
 from render.gl.overlays import Captions, Overlays
 from render.gl.scene import (
     BLOB_FLOATS,
     CAPSULE_FLOATS,
     SHADOW_FLOATS,
-    body_rotations,
     contact_point,
     contact_shadows,
-    figure_colours,
-    orientation_mismatch,
     people_capsules,
-    posed_capsules,
     shadow_blobs,
 )
 from render.gl.style import Camera, RenderStyle, rgb
 from render.gl.terrain import TerrainLayer, TerrainView
 from render.gl.window_keys import WindowKeys
-from render.keyframes import KeyframeSet
-from render.keyframes.skeleton_pose import com_fraction as set_com_fraction
-from render.keyframes.skeletons import figure_for
-from sim.snapshot import CharacterSnapshot, WorldSnapshot
+from sim.snapshot import WorldSnapshot
 
 __all__ = ["Renderer", "RendererUnavailable", "display_available"]
 
@@ -68,7 +61,6 @@ _STAGE = np.array(  # floor (z = 0) and back wall (y = 8) as two quads
     dtype=np.float32,
 )
 _QUAD = np.array([(-1, -1), (1, -1), (-1, 1), (1, 1)], dtype=np.float32)  # triangle strip
-Sets = Mapping[str, KeyframeSet] | KeyframeSet
 
 
 class Renderer:
@@ -79,7 +71,7 @@ class Renderer:
     ``style``: camera, colours and what is drawn (``render.gl.style``); ``camera``/``samples``/
     ``flash_newtons`` override it. ``com_fraction``: height of the sim body's centre of mass above its
     base over its height (``CharacterSpec.com_height / height``), so the figures' feet meet the floor;
-    one for all, or by character name or kind (key ``"*"`` for the rest).
+    one for all, or by character name or kind (key ``"*"`` for the rest); see ``render.gl.figures``.
     """
 
     def __init__(
@@ -106,22 +98,16 @@ class Renderer:
             samples = look.samples if look.samples >= 0 else (0 if headless else 4)
         if samples not in (0, 2, 4, 8):
             raise ValueError(f"samples: expected 0, 2, 4 or 8, got {samples!r}")
-        fractions = com_fraction.values() if isinstance(com_fraction, Mapping) else [com_fraction]
-        if not all(0.0 < f < 1.0 for f in fractions):
-            raise ValueError(f"com_fraction: expected fractions in (0, 1), got {com_fraction!r}")
+        self.figures = Figures(com_fraction, self.style.colours, flash_newtons or look.flash_newtons)
         self.width, self.height, self.headless = width, height, headless
         self.camera = camera or self.style.camera
         self.stage_x = stage_x
-        self.com_fraction = com_fraction
-        self.flash_newtons = flash_newtons or look.flash_newtons
         self.flashes = Flashes(look.flash_s)
-        self.fade = BehaviourFade()
         self.hud = Hud(rgb("hud_text", self.style.colours.hud_text)) if look.hud else None
         tune_malloc()
         self._window, self._gl = open_context(headless, width, height, fullscreen and not headless)
         self._keys = None if headless else WindowKeys(self._window, exit_keys, kiosk=fullscreen)  # Esc: see there
         self._closed = False
-        self._warned: set[str] = set()
         self._terrain: TerrainLayer | None = None  # made on the first frame with cubes to draw
         gl = self._gl
         # render_scale < 1 draws the scene smaller and scales it up (the HUD stays sharp): fragments are
@@ -204,7 +190,7 @@ class Renderer:
         gl.glClear(gl.GL_DEPTH_BUFFER_BIT)  # nothing is ever behind the floor or the back wall
         gl.glFlush()  # llvmpipe copies the stage in its threads while the figures are posed here
         chars = snapshot.characters
-        a, b, r, instances = self._figures(snapshot.t, chars, keyframes)
+        a, b, r, instances = self.figures.capsules(snapshot.t, chars, keyframes)
         gl.glEnable(gl.GL_DEPTH_TEST)
         gl.glDepthFunc(gl.GL_LESS)
         gl.glDisable(gl.GL_BLEND)
@@ -294,61 +280,6 @@ class Renderer:
         gl.glBindVertexArray(self._stage_vao)
         gl.glDrawArrays(gl.GL_TRIANGLES, 0, len(_STAGE))
         self._background_camera = self.camera
-
-    def _figures(
-        self, t: float, chars: tuple[CharacterSnapshot, ...], keyframes: Sets
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Capsule ends a, b (N, C, 3), radii (N, C) and instances (N·C, CAPSULE_FLOATS), in snapshot order."""
-        n = len(chars)
-        if n == 0:
-            return np.zeros((0, 0, 3)), np.zeros((0, 0, 3)), np.zeros((0, 0)), np.zeros((0, CAPSULE_FLOATS))
-        rots = body_rotations(np.array([c.orientation for c in chars], dtype=float))
-        if "frame" not in self._warned and (problem := orientation_mismatch(chars, rots)):
-            self._warned.add("frame")
-            warnings.warn(problem, stacklevel=2)
-        positions = np.array([c.position for c in chars], dtype=float)
-        heights = np.array([c.height for c in chars], dtype=float)
-        behaviours = self.fade.behaviours(t, chars)
-        groups: dict[int, tuple[KeyframeSet, list[int]]] = {}
-        linked = [i for i, c in enumerate(chars) if c.links]  # articulated: drawn from their own links
-        for i, c in enumerate(chars):
-            if not c.links:
-                kset = self._set_for(c, keyframes)
-                groups.setdefault(id(kset), (kset, []))[1].append(i)
-        parts = [articulated_part([chars[i] for i in linked], np.array(linked), self.style.colours,
-                                  self.flash_newtons)] if linked else []
-        for kset, idx in groups.values():
-            figure = figure_for(kset.skeleton)
-            sel = np.array(idx)
-            group = [chars[i] for i in idx]
-            poses = kset.evaluate(kset.snapshot_array(group), [behaviours[i] for i in idx])
-            scale = heights[sel] / kset.height
-            body = np.array([self._com_fraction(c) for c in group])
-            lift = (set_com_fraction(figure) - body) * kset.height
-            a, b, r = posed_capsules(figure, poses, positions[sel], rots[sel], scale, lift)
-            colours = figure_colours(group, figure.material, self.style.colours, self.flash_newtons)
-            parts.append((sel, a, b, r, colours))
-        a, b, r, colours = merge_parts(parts, n)  # several sets: back into snapshot order
-        instances = np.concatenate([a, b, r[..., None], colours], axis=2).reshape(-1, CAPSULE_FLOATS)
-        return a, b, r, instances
-
-    def _com_fraction(self, c: CharacterSnapshot) -> float:
-        f = self.com_fraction
-        if not isinstance(f, Mapping):
-            return float(f)
-        return float(f.get(c.name, f.get(getattr(c, "kind", ""), f.get("*", 0.5))))
-
-    @staticmethod
-    def _set_for(c: CharacterSnapshot, keyframes: Sets) -> KeyframeSet:
-        """The character's set: one for all, or by its name, else by its kind (spec name), else ``"*"``."""
-        if isinstance(keyframes, KeyframeSet):
-            return keyframes
-        found = keyframes.get(c.name) or keyframes.get(getattr(c, "kind", "")) or keyframes.get("*")
-        if found is None:
-            raise KeyError(
-                f"render: no keyframe set for character {c.name!r} (sets for: {', '.join(sorted(keyframes))})"
-            )
-        return found
 
     # ------------------------------------------------------------------ window and life cycle
 
