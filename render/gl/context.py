@@ -27,9 +27,9 @@ _malloc_tuned = False
 
 
 def tune_malloc() -> bool:
-    """Keep glibc from handing the GL driver's per-frame memory back to the OS (measured: 28 instead
-    of 64 fps on llvmpipe without this). Raises M_TRIM_THRESHOLD / M_TOP_PAD / M_MMAP_THRESHOLD once
-    per process; False where there is no glibc ``mallopt`` (nothing to tune)."""
+    """Keep glibc from handing the GL driver's per-frame memory back to the OS (which costs llvmpipe
+    much of its frame rate: docs/notes/rendering-costs.md). Raises M_TRIM_THRESHOLD / M_TOP_PAD /
+    M_MMAP_THRESHOLD once per process; False where there is no glibc ``mallopt`` (nothing to tune)."""
     global _malloc_tuned
     if _malloc_tuned:
         return True

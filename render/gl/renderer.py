@@ -258,8 +258,8 @@ class Renderer:
         gl.glDrawArraysInstanced(gl.GL_TRIANGLE_STRIP, 0, 4, len(rows))
 
     def _draw_stage(self, vp: np.ndarray) -> None:
-        """Floor and back wall into the background target (full-screen fragment work: ~10 ms on
-        llvmpipe at 1280×720, so it is drawn once per camera and copied every frame)."""
+        """Floor and back wall into the background target (full-screen fragment work, dear on llvmpipe,
+        so it is drawn once per camera and copied every frame)."""
         gl = self._gl
         self._background.bind()
         gl.glClearColor(*rgb("background", self.style.colours.background), 1.0)

@@ -3,8 +3,8 @@
 - the stage (floor with a grid and the playable area marked, back wall), drawn once per camera;
 - soft shadows: one blob per figure and a contact shadow under every capsule near the floor;
 - capsules as *impostors*: one camera-facing quad per capsule (2 triangles) bounding it, the capsule's
-  surface and true depth found per fragment — llvmpipe's vertex stage runs on one core at ~40–500 ns
-  per triangle, so triangles are what a frame cannot afford; fragments cost ~6–15 ns each here;
+  surface and true depth found per fragment — on llvmpipe triangles, not fragments, are what a frame
+  cannot afford (figures: docs/notes/rendering-costs.md);
 - the silhouette of the people on the calibrated stage plane (textured through the inverse
   homography), the flashes where contacts land, and the HUD text.
 

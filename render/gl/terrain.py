@@ -2,8 +2,8 @@
 
 One instanced draw: a 12-triangle box per occupied column (its full height), the seams between the
 stacked and neighbouring cubes drawn in the fragment shader (so a column of three looks like three
-cubes for the price of one box). A 64×64 grid full of columns is ~49 k triangles (~2 ms on llvmpipe's
-vertex stage); the instance buffer is uploaded again only when the heights change.
+cubes for the price of one box); the instance buffer is uploaded again only when the heights change.
+What it costs on llvmpipe: docs/notes/rendering-costs.md.
 
 :class:`TerrainView` is what the renderer is given per frame (the heights in cubes, the cell size and
 the grid's origin, and the cells where a hand is being held — drawn as a translucent cube growing on

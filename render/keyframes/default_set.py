@@ -1,27 +1,12 @@
 """The shipped keyframe sets (``configs/keyframes/humanoid/`` and ``configs/keyframes/critter/``), built
 deterministically by ``jostle keyframes build-default`` (or ``python -m render.keyframes.default_set [folder]``).
 
-The humanoid set: 14 one-dimensional animations, 104 keyframes (the paper's set had 12 and 57).
-
-- **walk** (B = "walk"), family ``walk``: four animations along Dz at Dx = 0, 0.25, 0.5, 0.75, each
-  8 keys of pybullet's ``humanoid3d_walk`` cycle; the one at Dx = 0 is the clip itself, the others
-  have the legs of the side step (``humanoid3d_dance_b``, see ``render.keyframes.default_poses``) at that phase
-  layered on, so moving sideways steps sideways, moving diagonally blends both.
-- **staggers** (B = "walk"): at |Θ| = 0.3 in each direction, the character hurries in the direction it
-  leans (the paper: "walks quickly in the same direction as the impact force"): the walk cycle along
-  Dz leaning forward or backward, the side step along Dx leaning right or left, the upper body fighting
-  the lean (arms out, trunk against the push).
-- **falls** (B = "walk"): forward and backward along Θx, right and left along Θz; each starts at Θ = 0
-  from whatever the walk gives at the query's phase (a key referring to family ``walk``), passes the
-  stagger at 0.3 (a key referring to that stagger), then hand-made poses: forward the arms come
-  forward to catch; backward the body folds, sits and rolls onto its back; sideways the hands
-  flutter and reach out. The lying ends are the first frames of the get-up clips.
-- **stand_up** (B = "stand_up"): ``humanoid3d_getup_faceup`` along Θx < 0 and ``_facedown`` along
-  Θx > 0, ending at Θx = 0 in the walk (so switching B upright or lying does not pop).
-
-The critter set: the same animations on the ``critter`` figure (big head, short limbs), with the
-``humanoid3d_run`` cycle for Dz — a small creature scurries — and every pose placed with the
-critter's own centre of mass.
+The humanoid set: one-dimensional animations of walking (four along Dz at Dx = 0, 0.25, 0.5, 0.75,
+one family), staggering and falling (B = "walk", along Θ) and standing up (B = "stand_up"), from
+pybullet's DeepMimic clips and the hand-made poses of ``render.keyframes.default_poses``. The
+critter set: the same animations on the ``critter`` figure, with the ``humanoid3d_run`` cycle for
+Dz, every pose placed with the critter's own centre of mass. What each animation holds and where it
+comes from: ``configs/keyframes/humanoid/README.md``.
 """
 
 from __future__ import annotations

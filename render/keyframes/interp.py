@@ -1,30 +1,20 @@
 """Interpolation in the keyframe space Q for one behaviour B (Mitake et al. 2009 §5), vectorised.
 
-Q's continuous coordinates are ``Space.axes``: always Θx, Θz, Dx, Dz, plus any a set adds (e.g.
-``speed``). A *curve* is one 1-D animation: keys at increasing coordinates along one axis, at a
-fixed *base* for the other coordinates — each a number, or ``None`` ("any": the animation holds for
-every value of it, as the paper's stand-up line does for D). Along a periodic axis (Dx, Dz) the
-curve wraps (p(x) = x − ⌊x⌋); along any other axis it is a segment, and a query beyond its ends
-takes the end key. A key is a stored pose (an index into the set's key table) or a *reference* to a
-family: "here the pose is whatever that family gives at this query" (how a fall starts from the
-current walking phase).
+Q's continuous coordinates are ``Space.axes``: Θx, Θz, Dx, Dz, plus any a set adds. A *curve* is one
+1-D animation: keys at increasing coordinates along one axis, at a fixed *base* for the others (a
+number, or ``None``: "any"). Along a periodic axis (Dx, Dz) it wraps; along any other a query beyond
+its ends takes the end key. A key is a stored pose (an index into the key table) or a *reference* to
+a family ("whatever that family gives at this query"). A *family* is one curve or several parallel
+curves whose bases differ in one *loft* coordinate.
 
-A *family* is one curve, or several parallel curves whose bases differ in one coordinate (the
-*loft* coordinate): between neighbouring members it blends them linearly in that coordinate.
-
-Evaluating a query gives non-negative weights over the key table that sum to 1:
-
-1. each curve: linear between the two keys that bracket the query's coordinate on its axis;
-2. each family: linear between the two members that bracket the query's loft coordinate, and its
-   distance is the same blend of the members' distances to the query;
-3. the families of a behaviour: inverse-distance weights ``(d_min / d_F) ** sharpness``,
-   normalised. A family at distance 0 (the query lies on one of its curves) takes all the weight,
-   so the set is exact on every curve and at every key; families that meet must agree where they
-   meet (the loader checks it). Distances add each coordinate's difference times the axis'
-   ``scale`` (radians for Θ; ``cycle_weight`` per cycle for D), in quadrature; "any" does not count.
-
-Everything is a convex combination of stored keys, so nothing overshoots its neighbours. All of it
-runs on whole batches: one set of numpy operations per behaviour, whatever the number of queries.
+A query gets non-negative weights over the key table that sum to 1: linear between the bracketing
+keys of each curve; linear between the bracketing members of each family (its distance the same
+blend); inverse-distance weights ``(d_min / d_F) ** sharpness`` between families, so a family at
+distance 0 takes all the weight (exact on every curve and key). Distances add each coordinate's
+difference times its axis' ``scale`` (radians for Θ; ``cycle_weight`` per cycle for D) in
+quadrature; "any" does not count. Families that meet must agree where they meet (the loader checks
+it). Everything is a convex combination of stored keys, so nothing overshoots; one set of numpy
+operations per behaviour, whatever the number of queries.
 """
 
 from __future__ import annotations

@@ -1,45 +1,10 @@
 """Reading and writing keyframe sets: a manifest (``keyframes.toml``) and pose files (TOML).
 
-Manifest::
-
-    format = 1
-    skeleton = "humanoid"          # the skeleton the poses drive: humanoid | critter (render.keyframes.skeletons)
-    height = 1.62                  # soles to head top when standing, in the poses' metres
-    default_behaviour = "walk"     # used for a behaviour B the set does not have (one warning)
-    poses = ["poses/walk.toml"]    # pose files, relative to this file
-
-    [interpolation]
-    cycle_weight = 0.5             # radians of tilt that weigh as much as a whole Dx/Dz cycle
-    sharpness = 2.0                # exponent of the inverse-distance weights between families
-
-    [dimensions.speed]             # optional: more coordinates of Q (see render.keyframes.keyframe_set.EXTRA_AXES)
-    scale = 0.5                    # radians of tilt that weigh as much as one unit of it
-    min = 0.0                      # queries are clamped to [min, max]
-    max = 1.2
-    periodic = false               # true: keys in [0, 1), wrapping like Dx/Dz
-
-    [[animation]]
-    name = "fall_forward"
-    behaviour = "walk"
-    family = "fall_forward"        # optional; parallel animations sharing one family are blended
-    axis = "theta_x"               # theta_x | theta_z | dx | dz
-    at = { theta_z = 0.0, dx = "any", dz = "any" }   # the other coordinates: number or "any"
-                                   # (an added dimension left out is "any")
-    keys = [
-      { at = 0.0, family = "walk" },            # here: the pose family "walk" gives at this query
-      { at = 0.8, pose = "fall_forward_reach" },
-    ]
-
-Pose file: one table per pose, all in the rigid body's frame with the skeleton's axes (x forward,
-y up, z right), metres::
-
-    [fall_forward_reach]
-    root_offset = [0.0, 0.05, 0.0]                       # pelvis from the body origin (default 0)
-    root_rotation = { axis = [0, 0, 1], degrees = -20 }  # pelvis rotation (default none)
-    [fall_forward_reach.joints]                          # joints left out are not rotated
-    chest = { axis = [0, 0, 1], degrees = -10 }          # axis-angle, degrees …
-    neck = [0.0, 0.0, 0.087, 0.996]                      # … or a quaternion x y z w
-    right_knee = -30.0                                   # hinges (knees, elbows): degrees about z
+The manifest names the skeleton (``render.keyframes.skeletons``), the standing height (metres), the
+default behaviour, the pose files (relative to it), the interpolation settings, any added dimensions
+of Q and every animation with the coordinates of its keys; a pose file holds one table per pose in
+the rigid body's frame with the skeleton's axes (x forward, y up, z right), metres (``pose_text``).
+The format, with an example of each, is in ``configs/keyframes/humanoid/README.md``.
 
 Every error is one line naming the file, the animation and key (or pose) and what was expected.
 """
