@@ -7,8 +7,8 @@ Two kinds of drawing, chosen per character by its link names:
   is drawn with one impostor capsule per link exactly where the sim's collision shape of that link is,
   from the link's frame (a sphere is a capsule of zero length; a box the capsule along its longest side,
   as thick as its middle side); materials by body part: shirt, trousers, skin, shoes;
-- anything else with links (quadrupeds, unknown skeletons) goes to ``render.gl.link_figures`` (
-  capsules between link origins by kind, or a stick figure).
+- anything else with links (quadrupeds, unknown skeletons) goes to ``render.gl.link_figures``
+  (capsules between link origins by kind, or a stick figure).
 
 Shirt colours are by the character's place in the snapshot, as for keyframe figures.
 """
