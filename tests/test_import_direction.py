@@ -54,6 +54,14 @@ def test_imports_flow_left_to_right(pkg: str) -> None:
     assert not wrong, "\n".join(wrong)
 
 
+def test_keyframes_never_import_drawing() -> None:
+    """Inside render/: the drawing (render.gl) uses the keyframe sets (render.keyframes), never the reverse."""
+    wrong = [f"{path.relative_to(ROOT)}:{line}: imports {module}"
+             for path in sorted((ROOT / "render" / "keyframes").rglob("*.py"))
+             for line, module in _imports(path) if module == "render.gl" or module.startswith("render.gl.")]
+    assert not wrong, "\n".join(wrong)
+
+
 def test_the_checker_catches_a_wrong_import(tmp_path: Path) -> None:
     bad = tmp_path / "m.py"
     bad.write_text("def f():\n    from render.gl.renderer import Renderer\n    import jostle.app\n")
