@@ -187,7 +187,7 @@ def build_default_sets(folder: Path) -> list[Path]:
 
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
-    folder = Path(args[0]) if args else Path(__file__).resolve().parent.parent / "configs" / "keyframes"
+    folder = Path(args[0]) if args else Path(__file__).resolve().parents[2] / "configs" / "keyframes"
     for manifest in build_default_sets(folder):
         print(manifest)
     return 0
