@@ -20,8 +20,8 @@ from types import ModuleType
 import cv2
 import numpy as np
 
-from interaction.calibration import Calibration
 from interaction.types import BodyObservation
+from interaction.webcam.calibration import Calibration
 from render import shaders
 from render.effects import FLASH_FLOATS, BehaviourFade, Flashes, Hud
 from render.glcontext import (

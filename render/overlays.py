@@ -11,7 +11,7 @@ from types import ModuleType
 import cv2
 import numpy as np
 
-from interaction.calibration import Calibration
+from interaction.webcam.calibration import Calibration
 from render.effects import Hud
 from render.glcontext import attribute, gen, uniform, uniform_matrix, upload
 from render.style import RenderStyle, rgb

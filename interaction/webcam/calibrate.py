@@ -31,7 +31,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from interaction.calibration import Calibration, CalibrationError, round_off_zeros
+from interaction.webcam.calibration import Calibration, CalibrationError, round_off_zeros
 
 __all__ = [
     "BoardPlacement",

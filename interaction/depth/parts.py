@@ -23,7 +23,7 @@ Feet (:func:`find_feet`): the points 5–20 cm over the floor under the shins, s
 measured on the full image's 3×3-median depth (the floor's noise stays under 4.5 cm there) in a
 column over it, from the lowest points seen up by ``FOOT_TOP_M``, so a raised foot is measured where
 it is. The height of a shoe standing on the floor (its lowest points seen at that 4.5 cm cut,
-``FLOOR_CUT_M``) or hanging toe-down is had from a generic shoe's shape (:mod:`interaction.shoe_fit`):
+``FLOOR_CUT_M``) or hanging toe-down is had from a generic shoe's shape (:mod:`interaction.depth.shoe_fit`):
 the points seen would put the first too high, the second at its toe. The column is first centred on
 the coarse points' middle, which can be anywhere on the shoe, then again on the middle of the shoe's points seen in it (a shoe is about as long as the
 column is wide: off its middle, the column cuts off a heel or a toe). A column whose lowest points seen are higher than ``MAX_FOOT_BOTTOM_M`` shows a
@@ -38,7 +38,7 @@ less than 0.011 m² (11 % of the feet, most behind the other leg) were off by p5
 (On seed 0 (100) the area alone at 0.011 / 0.015 m²: p95 of hands and feet 0.078 / 0.073 m (0.077 / 0.074),
 found share 0.498 / 0.466 (0.522 / 0.496); with the hiding rule 0.075 m (0.076) at 0.483 (0.513).) A foot
 is reported from the first frame it is found, where a hand waits for a second. Last, each foot is moved
-by the shoe model (:mod:`interaction.shoe_model`): the mean correction of the feet most like it among
+by the shoe model (:mod:`interaction.depth.shoe_model`): the mean correction of the feet most like it among
 virtual performers' feet whose true middles are known.
 
 Measured on the virtual performer at 640×400 (``jostle bench interaction``, seeds 0 and 100), before the
@@ -69,11 +69,11 @@ import math
 import cv2
 import numpy as np
 
-from interaction.depth_calibration import DepthCalibration
-from interaction.hand_fit import follow_hand
+from interaction.depth.calibration import DepthCalibration
+from interaction.depth.hand_fit import follow_hand
+from interaction.depth.shoe_fit import SHOE_HEIGHT_M, one_per_shoe, shoe_middle_height
+from interaction.depth.shoe_model import ShoeModel, column_features
 from interaction.people import two_clusters
-from interaction.shoe_fit import SHOE_HEIGHT_M, one_per_shoe, shoe_middle_height
-from interaction.shoe_model import ShoeModel, column_features
 from sensors.base import DepthImage
 
 __all__ = ["FineDepth", "find_feet", "find_hands"]
@@ -310,7 +310,7 @@ def _hand_middle(tip: np.ndarray, shoulders: np.ndarray, fine: FineDepth, scale:
                  legs: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray | None:
     """The hand at a coarse tip: of the full-resolution points near it, those within a hand's size of
     the farthest one out from the shoulders (across the view), again around them while the arm goes on
-    past the points looked at (:mod:`interaction.hand_fit`), averaged and moved back into the hand."""
+    past the points looked at (:mod:`interaction.depth.hand_fit`), averaged and moved back into the hand."""
     # on the 3×3 median (a third of the noise); looked for again around the hand found while it moves
     middle = follow_hand(lambda centre: fine.points_near(centre, 0.14 * scale, 0.05, smooth=True),
                          tip, shoulders, fine.camera, 2 * HAND_RADIUS_M * scale, HAND_RADIUS_M * scale, legs,
@@ -325,7 +325,7 @@ def find_feet(q: np.ndarray, fine: FineDepth, measured: list[np.ndarray] | None 
     or beside its shins (20–45 cm; stray low points under a hand or beside the person are no foot),
     split in two (one when close together), each measured on the full image (see the module's
     notes). ``measured`` gets each foot as measured on its points seen, before a shoe's shape sets its height;
-    ``shoes`` corrects each foot (:mod:`interaction.shoe_model`); ``shoe_rows`` gets each foot's
+    ``shoes`` corrects each foot (:mod:`interaction.depth.shoe_model`); ``shoe_rows`` gets each foot's
     (features, position before that correction), except two found on one shoe."""
     z = q[:, 2]
     low, shins = q[(z > 0.05) & (z < FOOT_BAND_M)], q[(z > FOOT_BAND_M) & (z < FOOT_BAND_M + 0.25), :2]

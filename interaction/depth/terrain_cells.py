@@ -13,7 +13,7 @@ covers x in [origin_x + ix·cell, + cell), y likewise. sim/ has its own grid of 
   calibration, floor at z = 0) are sorted into floor points and raised points; the cell's top is a
   high percentile of its raised points, and it holds a box when the points near that top cover most
   of the cell — most of its sub-squares, and much of its area (each point stands for the floor area
-  its pixels see: :mod:`interaction.terrain_points`) — a flat top: a person's leg or arm covers a
+  its pixels see: :mod:`interaction.depth.terrain_points`) — a flat top: a person's leg or arm covers a
   strip, a box's lid the whole cell; the top is no higher than ``max_cubes`` cubes and no person's contactor is near. It is
   empty when floor points cover most of it and no lid does. Anything else (hidden behind something, a
   person near, ragged) is unknown. What a cell is changes only after the new answer has held for
@@ -34,8 +34,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from interaction.depth_calibration import DepthCalibration
-from interaction.terrain_points import StagePoints
+from interaction.depth.calibration import DepthCalibration
+from interaction.depth.terrain_points import StagePoints
 from interaction.types import BodyObservation, Contactor
 from sensors.base import DepthImage, Frame
 
@@ -120,7 +120,7 @@ class TerrainObserverConfig:
     cover_squares: int = 3  # a cell's sub-squares per side, for how much of it points cover
     min_cover: float = 0.55  # a box's top (the floor) covers at least this fraction of the sub-squares
     min_top_points: int = 6  # … with at least this many points
-    min_lid: float = 0.42  # … and a lid over at least this fraction of its area (interaction.terrain_points)
+    min_lid: float = 0.42  # … and a lid over at least this fraction of its area (interaction.depth.terrain_points)
     max_cubes: int = 4  # taller than this many cubes: not a box (a person, furniture)
     person_clearance_m: float = 0.2  # cells this near a person's contactor are not judged …
     box_person_margin_m: float = 0.15  # … unless all their contactors are this near box cells (a tall stack)

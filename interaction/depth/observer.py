@@ -12,17 +12,17 @@ than ``body_clearance_m`` find people (the floor's stereo noise stays below it);
 within a cell or two of a person's cells (feet, an arm's sparse end) are given to that person.
 
 Each person gives a head (the top), a coarse hull of four stacked "body" spheres as wide as their band of the
-body, and hands and feet (:mod:`interaction.depth_parts`): *found* on the sampled points, *measured* on every
+body, and hands and feet (:mod:`interaction.depth.parts`): *found* on the sampled points, *measured* on every
 pixel of the full image near them, moved from the surface seen back to the middle of the part. A hand is only
 reported when it is an arm's length out from its shoulder and clear of the torso (and the head) and of the legs,
 and not where the arm goes on behind something nearer (then what is seen is the forearm); feet are the points
-low over the floor under the shins. Hands and feet are followed by :class:`interaction.limb_tracks.LimbTracker`
+low over the floor under the shins. Hands and feet are followed by :class:`interaction.depth.limb_tracks.LimbTracker`
 (hands reported from their second frame on, feet from their first; velocity claimed only when steady).
 
 People: ``people`` counts those seen plus those hidden: someone seen in 5 frames or more who
 vanished less than ``hidden_memory_s`` ago next to (``hidden_near_m``) someone still seen is
 behind or merged with them, and still counted (with no contactors of their own) — unless a track born
-about then is there, the same person under a new id (``interaction.hidden_people``).
+about then is there, the same person under a new id (``interaction.depth.hidden_people``).
 
 Latency: a contactor's position is the frame's own measurement (no filtering, no lag). A hand's
 or foot's velocity is the frame-to-frame one (half a frame behind), claimed from its third frame;
@@ -55,12 +55,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from interaction.depth_calibration import DepthCalibration
-from interaction.depth_parts import FineDepth, find_feet, find_hands
-from interaction.hidden_people import HiddenPeople
-from interaction.limb_tracks import LimbTracker
+from interaction.depth.calibration import DepthCalibration
+from interaction.depth.hidden_people import HiddenPeople
+from interaction.depth.limb_tracks import LimbTracker
+from interaction.depth.parts import FineDepth, find_feet, find_hands
+from interaction.depth.shoe_model import shipped_shoe_model
 from interaction.people import PeopleTracker, split_side_by_side
-from interaction.shoe_model import shipped_shoe_model
 from interaction.types import BodyObservation, Contactor
 from sensors.base import DepthImage, Frame
 
@@ -105,7 +105,7 @@ class DepthObserverConfig:
     limb_confirm_frames: int = 2  # a hand is reported once found in this many frames in a row
     foot_confirm_frames: int = 1  # … a foot in this many (its first frame's error is no larger: no confirming)
     limb_memory_frames: int = 3  # a track not found for longer is forgotten
-    shoe_model: bool = True  # feet corrected by the shipped shoe model (interaction.shoe_model); false: rules only
+    shoe_model: bool = True  # feet corrected by the shipped shoe model (interaction.depth.shoe_model); false: rules only
 
     def __post_init__(self) -> None:
         if not isinstance(self.work_width, int) or not 16 <= self.work_width <= 4096:

@@ -26,7 +26,7 @@ puts it there from what the column of points over a foot shows (:func:`shoe_midd
   ``HANGING_PITCH_DEG`` (a foot hanging pitches 45–90°: the least of it).
 
 Any other shoe is measured where its points are (None). What these rules leave (a heel up, a toe hanging
-at a pitch the points do not tell) the shoe model then corrects (:mod:`interaction.shoe_model`). Two feet found on one person nearer than a shoe's
+at a pitch the points do not tell) the shoe model then corrects (:mod:`interaction.depth.shoe_model`). Two feet found on one person nearer than a shoe's
 width (``SHOE_WIDTH_M``) are one shoe (:func:`one_per_shoe`): a shoe seen alone, its other foot hidden, is
 as long as two feet side by side are wide, and its low points are split heel from toe. The sizes are a
 generic adult shoe's, not any one performer's. What stays ambiguous: a flat shoe in the air seen heel-on,
@@ -86,7 +86,7 @@ leg's, how far back its top is) and of its motion since the frame before was no 
 raised feet are the misses (truth 6 cm or more over the floor: 45 of seed 0's 86 over 5 cm; their height
 exactly would make it 0.048 m). What did better: the shape of the column slice by slice (how wide each 3 cm
 is and where its middle lies), many more feet (from 18, then 48 other seeds), and the whole correction
-(along the view, across it and up), not the height alone: :mod:`interaction.shoe_model`, which corrects
+(along the view, across it and up), not the height alone: :mod:`interaction.depth.shoe_model`, which corrects
 each foot after these rules.
 """
 

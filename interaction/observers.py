@@ -25,14 +25,15 @@ class ObserverType:
 
 
 def _webcam_config() -> type:
-    from interaction.webcam import WebcamObserverConfig
+    from interaction.webcam.config import WebcamObserverConfig
 
     return WebcamObserverConfig
 
 
 def _build_webcam(config: Any, calibration: Path | None, sensor: str) -> Observer:
-    from interaction.calibration import Calibration
-    from interaction.webcam import WebcamObserver, WebcamObserverConfig
+    from interaction.webcam.calibration import Calibration
+    from interaction.webcam.config import WebcamObserverConfig
+    from interaction.webcam.observer import WebcamObserver
 
     if not isinstance(config, WebcamObserverConfig) or calibration is None:
         raise TypeError("webcam observer: expected a WebcamObserverConfig and a calibration file")
@@ -40,13 +41,13 @@ def _build_webcam(config: Any, calibration: Path | None, sensor: str) -> Observe
 
 
 def _pads_config() -> type:
-    from interaction.pads import PadsObserverConfig
+    from interaction.pads.observer import PadsObserverConfig
 
     return PadsObserverConfig
 
 
 def _build_pads(config: Any, calibration: Path | None, sensor: str) -> Observer:
-    from interaction.pads import PadsObserver, PadsObserverConfig
+    from interaction.pads.observer import PadsObserver, PadsObserverConfig
 
     if not isinstance(config, PadsObserverConfig):
         raise TypeError("pads observer: expected a PadsObserverConfig")
@@ -54,14 +55,14 @@ def _build_pads(config: Any, calibration: Path | None, sensor: str) -> Observer:
 
 
 def _depth_config() -> type:
-    from interaction.depth import DepthObserverConfig
+    from interaction.depth.observer import DepthObserverConfig
 
     return DepthObserverConfig
 
 
 def _build_depth(config: Any, calibration: Path | None, sensor: str) -> Observer:
-    from interaction.depth import DepthObserver, DepthObserverConfig
-    from interaction.depth_calibration import DepthCalibration
+    from interaction.depth.calibration import DepthCalibration
+    from interaction.depth.observer import DepthObserver, DepthObserverConfig
 
     if not isinstance(config, DepthObserverConfig) or calibration is None:
         raise TypeError("depth observer: expected a DepthObserverConfig and a calibration file")
