@@ -1,50 +1,20 @@
 """The depth observer: depth frames of people → contactors in stage metres.
 
-Per frame: the depth image (sampled down to ``work_width``) → points with the frame's own
-intrinsics → stage metres through the :class:`DepthCalibration` (floor at z = 0) → cropped to the
-stage volume and lifted off the floor by ``floor_clearance_m``. The points are binned on a
-top-down floor grid; cells that were occupied while the first ``learn_frames`` frames were
-learned (furniture) are left out; connected cells holding something taller than
-``min_height_m`` are people (a blob of two people close together is split by 2-means), tracked
-with stable ids (:class:`interaction.people.PeopleTracker`: nearest to where each is predicted;
-someone hidden for a while is found again within twice ``match_distance_m``). Only points higher
-than ``body_clearance_m`` find people (the floor's stereo noise stays below it); the other points
-within a cell or two of a person's cells (feet, an arm's sparse end) are given to that person.
+Per frame: the depth image (sampled down to ``work_width``) → points through the frame's intrinsics
+and the :class:`DepthCalibration` (stage metres, floor at z = 0), cropped to the stage volume and
+lifted off the floor by ``floor_clearance_m``. The points are binned on a top-down floor grid;
+cells occupied while the first ``learn_frames`` frames were learned are furniture; connected cells
+holding something taller than ``min_height_m`` are people (two close together split by 2-means),
+tracked with stable ids (:class:`interaction.people.PeopleTracker`).
 
-Each person gives a head (the top), a coarse hull of four stacked "body" spheres as wide as their band of the
-body, and hands and feet (:mod:`interaction.depth.parts`): *found* on the sampled points, *measured* on every
-pixel of the full image near them, moved from the surface seen back to the middle of the part. A hand is only
-reported when it is an arm's length out from its shoulder and clear of the torso (and the head) and of the legs,
-and not where the arm goes on behind something nearer (then what is seen is the forearm); feet are the points
-low over the floor under the shins. Hands and feet are followed by :class:`interaction.depth.limb_tracks.LimbTracker`
-(hands reported from their second frame on, feet from their first; velocity claimed only when steady).
+Each person gives a head (the top), four stacked "body" hull spheres, and hands and feet
+(:mod:`interaction.depth.parts`, followed by :class:`interaction.depth.limb_tracks.LimbTracker`).
+``people`` counts those seen plus those hidden behind someone seen (:mod:`interaction.depth.hidden_people`).
+Positions are the frame's own measurement (no lag). Velocities (m/s): a hand's or foot's is the
+frame-to-frame one, claimed only on steady tracks; the head's and the hull's an alpha-beta filter per
+track (``alpha``, ``beta``). Work arrays are kept from frame to frame.
 
-People: ``people`` counts those seen plus those hidden: someone seen in 5 frames or more who
-vanished less than ``hidden_memory_s`` ago next to (``hidden_near_m``) someone still seen is
-behind or merged with them, and still counted (with no contactors of their own) — unless a track born
-about then is there, the same person under a new id (``interaction.depth.hidden_people``).
-
-Latency: a contactor's position is the frame's own measurement (no filtering, no lag). A hand's
-or foot's velocity is the frame-to-frame one (half a frame behind), claimed from its third frame;
-the head's and the hull's are an alpha-beta filter per track (α = 0.6, β = 0.4: 40 % of a sudden
-change of velocity on the first frame, 80 % on the second, 104 % on the third, at most 12 %
-overshoot), which follows a constant velocity with no lag. At the OAK's 30 fps most of a shove is
-felt within ~2 frames (≈ 67 ms) after it shows in the depth; at 15 fps twice that. Processing
-itself (frame in → contactors out) takes ≈ 3 ms of CPU per 640×400 frame on average with 1–4
-people on this machine, 0.15 ms a foot of it the shoe model's (``jostle bench interaction``: depth_fps
-336, latency_ms_p99 7.7 ms; no frame builds whole-image tables except the first of an image size,
-≈ 1 ms; work arrays are kept from frame to frame).
-
-A velocity's direction is limited by the frame rate as much as by the noise: on the virtual
-performer at 15 fps, for hands (feet) moving faster than 0.5 m/s, the frame-to-frame step of their
-exact centres is off the true velocity by p50 8° (12°), p95 34° (51°) — a swing turns and stops
-within a frame — and the step of the measured positions by p95 47° (70°); at 30 fps the exact
-centres' p95 is 29° (39°). Hence velocities are claimed only on steady tracks: a track that followed
-its prediction for 3 frames and whose last two steps turn less than 20° (``limb_steady_frames``,
-``limb_consistent_deg``). On the performer (``jostle bench interaction``, seeds 0 and 100) that claims
-a velocity on 144–160 of the ≈ 650 contactors at a limb moving over 0.5 m/s, p95 28° off; the exact
-centres' steps between the same frames are off by p95 25–29° there, 47–49° over all fast limbs
-(``velocity_direction_error_deg_p95_sampled_truth``). A 15° turn claimed ≈ 115 at 27°; 2 frames, ≈ 200 at 28–32°.
+Latency, cost and velocity figures, and what was tried: docs/notes/depth.md.
 """
 
 from __future__ import annotations

@@ -1,65 +1,20 @@
 """Hands and feet of one person in a depth frame, found coarse and measured fine.
 
-The depth observer finds people on a sampled image (every 4th pixel at 640 px across). A hand
-there is a couple of samples, each with the stereo error of its distance (≈ 6 cm along the ray at
-5 m for an OAK), too few to place it within a few centimetres. So an extremity is *found* on the
-sampled points and *measured* on every pixel of the full image near it (:class:`FineDepth`): the
-points of the tip (on the depth's 3×3 median, a third of its noise) are averaged, and the average,
-which lies on the surface the camera sees, is moved back along the viewing ray to the middle of the
-part (two thirds of its radius for a rounded part: the mean depth of a sphere's visible half).
+An extremity is *found* on the observer's sampled points and *measured* on every pixel of the full
+image near it (:class:`FineDepth`): the points of its tip on the depth's 3×3 median are averaged and
+moved back along the viewing ray from the surface seen to the middle of the part.
 
-Hands (:func:`find_hands`): of the person's points above the hips, well out from the torso, not
-near a leg (the line from a foot up to the hips) and with nothing right under them (a knee or a
-thigh has its shin there), the one farthest from its shoulder (the shoulders lie either side of the
-torso's axis along the chest's widest direction). It is a hand only when it is at least
-``min_arm_reach`` (a fraction of the person's height) from that shoulder and no farther than an arm
-can reach: a bent arm, or an arm hanging against the body, gives no hand (an elbow is not passed off
-as one; the body's hull covers it). Nor does an arm whose end seen is where it goes behind something
-nearer (the torso, someone in front): beyond its tip, along the arm, the image shows a surface well in
-front of the arm's line (:meth:`FineDepth.hidden_beyond`); the forearm seen there is no hand, and the
-hidden hand is not guessed. The second hand is looked for off the first one's arm.
+- :func:`find_hands`: of the points above the hips, out from the torso, clear of the legs and with
+  nothing right under them, the one farthest from its shoulder, when it is an arm's reach out
+  (``min_arm_reach`` to ``MAX_ARM_REACH``) and not where the arm goes on behind something nearer
+  (:meth:`FineDepth.hidden_beyond`); refined by :func:`interaction.depth.hand_fit.follow_hand`.
+- :func:`find_feet`: the points 5–20 cm over the floor under the shins, split in two, each measured on
+  a column over it; its height from a generic shoe's shape (:mod:`interaction.depth.shoe_fit`), then
+  corrected by the shoe model (:mod:`interaction.depth.shoe_model`). A hidden or half-hidden shoe
+  (``MAX_FOOT_BOTTOM_M``, ``MIN_SHOE_SEEN_M2``, ``HIDDEN_SHOE_SEEN_M2``) gives no foot.
 
-Feet (:func:`find_feet`): the points 5–20 cm over the floor under the shins, split in two; each is
-measured on the full image's 3×3-median depth (the floor's noise stays under 4.5 cm there) in a
-column over it, from the lowest points seen up by ``FOOT_TOP_M``, so a raised foot is measured where
-it is. The height of a shoe standing on the floor (its lowest points seen at that 4.5 cm cut,
-``FLOOR_CUT_M``) or hanging toe-down is had from a generic shoe's shape (:mod:`interaction.depth.shoe_fit`):
-the points seen would put the first too high, the second at its toe. The column is first centred on
-the coarse points' middle, which can be anywhere on the shoe, then again on the middle of the shoe's points seen in it (a shoe is about as long as the
-column is wide: off its middle, the column cuts off a heel or a toe). A column whose lowest points seen are higher than ``MAX_FOOT_BOTTOM_M`` shows a
-shin whose shoe is hidden (behind the other leg, someone nearer): no foot is guessed there. Nor where
-the shoe is half hidden: seen on less than ``MIN_SHOE_SEEN_M2`` (its pixels times the area a pixel
-covers at their distance, per 1.6 m of the person's height squared; ≈ 100 px 4.5 m from the camera), or on less
-than ``HIDDEN_SHOE_SEEN_M2`` with something over ``HIDING_SHARE`` of the pixels around it more than
-15 cm nearer (:meth:`FineDepth.nearer_share`). On the performer a shoe seen whole shows a median
-0.018 m² (crossing the view: its side; a 26 × 10 × 8 cm box shoe at 4 m shows 0.021 m² side-on,
-0.0135 m² toe-on, and is measured toe-on only when nothing nearer is beside it), and those seen on
-less than 0.011 m² (11 % of the feet, most behind the other leg) were off by p50 4–9 cm, p95 12 cm.
-(On seed 0 (100) the area alone at 0.011 / 0.015 m²: p95 of hands and feet 0.078 / 0.073 m (0.077 / 0.074),
-found share 0.498 / 0.466 (0.522 / 0.496); with the hiding rule 0.075 m (0.076) at 0.483 (0.513).) A foot
-is reported from the first frame it is found, where a hand waits for a second. Last, each foot is moved
-by the shoe model (:mod:`interaction.depth.shoe_model`): the mean correction of the feet most like it among
-virtual performers' feet whose true middles are known.
-
-Measured on the virtual performer at 640×400 (``jostle bench interaction``, seeds 0 and 100), before the
-shoe model: hands p50 ≈ 1.2 cm, p95 3.7 and 3.3 cm (5.4 and 4.4 looked for once; 5.5 and 4.7 chosen in 3D;
-6.0–6.3 cm on the raw depth, not its 3×3 median; 12.6 and 9.9 cm before hidden arms were left out); feet
-p50 ≈ 2.5 cm, p95 6.8 and 7.2 cm (7.6–7.7 cm before a shoe's shape set the height of a shoe standing or
-hanging, 8.4 cm before half-hidden shoes were left out). The feet's tracks follow them as measured on their
-points seen (held 4 cm up while they stand), not at the heights a shoe's shape gives, which jump as a
-foot goes from standing to hanging (followed there, 100 feet's velocities were claimed, not 172, p95 35°).
-Claimed directions, p95 (p90), both seeds: hands 31° (27°) → 35° (28°) with the median, feet 23° (17°) →
-28° (17°) (held at 3 cm as before: 23°, the same claims). The average of
-a shoe's points cut out with the true shoe box (grown by 4 cm for the noise) reached feet p95 ≈ 7 cm
-(this module's points: 8.8 cm, before the shoe's shape). Tried and not kept (no better on p95, most on
-seed 0, all hands and feet 0.082 m then): the shoe's points cut out of the shin's axis (at the ankle it
-is off by p50 3 cm), the toe's tip less half a shoe, a 5×5 median, a lower floor cut, a foot at rest
-averaged over frames (its error is bias, not noise) or held where its track last saw it whole, the
-median or a trimmed mean of the shoe's points, a 10–16 cm second column, a 2 or 6 cm inset across, and
-a raised foot's height fitted (least squares) to its lowest points, mean and 90th percentile.
-
-Cost: the rays of every pixel are made once per image size (one outer sum, see :class:`FineDepth`);
-a part costs a crop of the image around it (no per-frame work over the whole image).
+Stage metres, floor at z = 0. Cost: the rays of every pixel once per image size; a part, a crop of
+the image around it. Figures and what was tried and not kept: docs/notes/depth-parts.md.
 """
 
 from __future__ import annotations

@@ -13,9 +13,7 @@ contactors with their own velocities. Pure of hardware: feed it :class:`sensors.
 anywhere.
 
 A frame allocates no image-sized arrays but the one it hands out (the people's mask) and the flow DIS
-returns: the work arrays are kept from frame to frame. (Fresh ones, ~10 MB a 640×480 frame, were often
-handed back to the system and page-faulted in again, up to ~1000 minor faults a frame: ≈ 0.5 ms of CPU
-of a 4.4 ms frame on average, more on a loaded machine.)
+returns: the work arrays are kept from frame to frame (why: docs/notes/webcam.md).
 """
 
 from __future__ import annotations
