@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from interaction.depth.calibration import DepthCalibration
-from interaction.depth.parts import FineDepth
+from interaction.depth.fine_depth import FineDepth
 from sensors.base import DepthImage
 
 W, H, F = 640, 400, 440.0

@@ -11,8 +11,8 @@ import pytest
 
 import interaction.depth.hand_fit as hand_fit
 from interaction.depth.calibration import DepthCalibration
+from interaction.depth.fine_depth import FineDepth
 from interaction.depth.hand_fit import follow_hand, hand_points
-from interaction.depth.parts import FineDepth
 from sensors.base import DepthImage
 
 CAMERA = np.array([0.0, -4.0, 2.4])

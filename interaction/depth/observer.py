@@ -27,9 +27,10 @@ import numpy as np
 
 from interaction.depth.calibration import DepthCalibration
 from interaction.depth.config import DepthObserverConfig
+from interaction.depth.fine_depth import FineDepth
 from interaction.depth.hidden_people import HiddenPeople
 from interaction.depth.limb_tracks import LimbTracker
-from interaction.depth.parts import FineDepth, find_feet, find_hands
+from interaction.depth.parts import find_feet, find_hands
 from interaction.depth.shoe_model import shipped_shoe_model
 from interaction.people import PeopleTracker, split_side_by_side
 from interaction.types import BodyObservation, Contactor
