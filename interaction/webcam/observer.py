@@ -327,9 +327,7 @@ class WebcamObserver:
     ) -> list[Contactor]:
         """Hands and feet from each person's body keypoints, where they lie on the silhouette. Their
         velocity is the optical flow at the limb, or the keypoints' smoothed motion where there is no
-        flow (a person's first frames). Measured: keypoints jitter by ~10 px between frames of a
-        sliding photograph, and on the virtual performer the flow's hand and foot velocities are off
-        by a median 0.2–0.33 m/s, the keypoints' (1€-filtered) by 0.5–1.0 m/s."""
+        flow (a person's first frames): the flow is the better of the two (docs/notes/webcam.md)."""
         assert self._pose is not None
         sil = self.silhouette
         if sil is None:

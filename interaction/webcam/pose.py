@@ -143,8 +143,7 @@ class Keypoints:
 class PoseModel:
     """The BlazePose landmark model (and, if given, the selfie segmentation model) on ``cv2.dnn``.
 
-    Not thread-safe (one net, one input). Cost per crop on this 2-core machine: ~20 ms idle (the
-    design notes' figure), 70 ms measured while other work loaded it; segmentation ~8 / 34 ms.
+    Not thread-safe (one net, one input). Its cost per crop: docs/notes/webcam.md.
     """
 
     def __init__(self, landmark_path: Path, segmentation_path: Path | None = None, *, refine: bool = True) -> None:
