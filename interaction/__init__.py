@@ -1,35 +1,12 @@
 """interaction: people's bodies seen by the sensors, as contactors and impulses in stage metres.
 
-Importing this package pulls in no OpenCV: ``WebcamObserver`` (which needs cv2) is imported from
-:mod:`interaction.webcam` on first use of the name.
+The contracts are in :mod:`interaction.types`. One observer per payload kind, each in its room with
+its calibration: :mod:`interaction.webcam`, :mod:`interaction.depth`, :mod:`interaction.pads`; the
+table of them is :mod:`interaction.observers`. Importing this package pulls in no OpenCV.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
-
-from interaction.calibration import Calibration, CalibrationError
 from interaction.types import BodyObservation, Contactor, Impulse, Vec3
-from interaction.webcam_config import WebcamObserverConfig
 
-if TYPE_CHECKING:
-    from interaction.webcam import WebcamObserver
-
-__all__ = [
-    "BodyObservation",
-    "Calibration",
-    "CalibrationError",
-    "Contactor",
-    "Impulse",
-    "Vec3",
-    "WebcamObserver",
-    "WebcamObserverConfig",
-]
-
-
-def __getattr__(name: str) -> Any:
-    if name == "WebcamObserver":
-        from interaction.webcam import WebcamObserver
-
-        return WebcamObserver
-    raise AttributeError(f"module 'interaction' has no attribute {name!r}")
+__all__ = ["BodyObservation", "Contactor", "Impulse", "Vec3"]

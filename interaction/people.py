@@ -248,9 +248,8 @@ def split_side_by_side(q: np.ndarray, separation: float, depth: int = 0) -> list
     ``separation`` apart (one person's halves are ~0.2–0.3 m apart), each standing on the floor and each
     with a waist (``_WAIST_SHARE`` of its points above the knees between 0.75 and 1.15 m) or else a head
     above the other half's top (someone behind, their middle hidden): an arm held or thrown out is no
-    person, even with a lunging leg under it. Measured on ``jostle bench interaction``'s punches: such
-    halves had 0–3 % waist and tops 1–3 cm below the body's; people 35–70 %, and a person half hidden
-    behind another 8–11 % with a top 17 cm above. Split again per half (up to 4)."""
+    person, even with a lunging leg under it (figures: docs/notes/depth.md). Split again per half (up
+    to 4)."""
     upper = q[q[:, 2] > 0.65, :2]
     if depth >= 2 or len(upper) < 40:
         return [q]

@@ -18,10 +18,10 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from interaction.fusion import SensorFusion
+from interaction.observers import Observer, observer_types
 from interaction.types import BodyObservation
 from jostle.config import JostleConfig, ObserverEntry
 from jostle.observer_guard import ObserverGuard
-from jostle.observers import Observer, observer_types
 from jostle.operations import Operations
 from jostle.progress import Progress
 from jostle.session_recording import SessionRecorder

@@ -17,7 +17,7 @@ every frame, fuses them, and scores against the truth:
   performer's hand (the sphere 2 cm beyond the wrist), a foot with the middle of the shoe (not the
   wrist or the ankle joint). ``depth_extremity_found_share``: the share of all true hands and feet
   (seen or hidden) that have a contactor of their part within 10 cm (what the error leaves out). Feet
-  are corrected by the shipped shoe model (``interaction.shoe_model``, made from seeds 300–5000, never
+  are corrected by the shipped shoe model (``interaction.depth.shoe_model``, made from seeds 300–5000, never
   the bench's 0, 100, 200); ``--no-shoe-model`` scores the shoe rules alone (``shoe_model`` says which).
 - ``webcam_extremity_error_m_p95``: the same for the webcam's hand/foot contactors in (x, z), the
   truth carried onto the webcam's stage plane through its own camera (what a webcam can know).
@@ -84,7 +84,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--keep", type=Path, default=None, metavar="DIR", help="record into DIR and keep the files (recordings already there are reused)")
     parser.add_argument("--shoe-model", action=argparse.BooleanOptionalAction, default=True,
                         help="correct the depth observer's feet with the shipped shoe model (default); "
-                             "--no-shoe-model: the shoe rules alone (interaction.shoe_model)")
+                             "--no-shoe-model: the shoe rules alone (interaction.depth.shoe_model)")
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     figures["recordings"] = ",".join(f"{n} people" for n in counts)
     figures["sizes"] = f"webcam {size[0]}x{size[1]}, depth {depth_size[0]}x{depth_size[1]}"
     figures["frames_per_s"] = args.fps
-    figures["shoe_model"] = bool(args.shoe_model)  # feet corrected by interaction.shoe_model (else the rules alone)
+    figures["shoe_model"] = bool(args.shoe_model)  # feet corrected by interaction.depth.shoe_model (else the rules alone)
     figures["targets_met"] = {k: _met(figures.get(k), *TARGETS[k]) for k in TARGETS if k != "webcam_pose_fps"}
     return figures
 
@@ -203,11 +203,11 @@ class _Scores:
 
 def _score_recording(path: Path, scores: _Scores, *, pose: bool, shoe_model: bool = True) -> None:
     """Run the observers over one synthetic recording (channels webcam, oak, truth) and add up the scores."""
-    from interaction.calibration import Calibration
     from interaction.depth import DepthObserver, DepthObserverConfig
     from interaction.fusion import SensorFusion
     from interaction.types import BodyObservation
     from interaction.webcam import WebcamObserver, WebcamObserverConfig
+    from interaction.webcam.calibration import Calibration
     from jostle.synth.truth import read_cameras, read_truth
     from sensors.base import DepthImage, Frame
     from sensors.recording_info import iter_payloads
@@ -285,7 +285,7 @@ def _depth_calibration(images: list[Any], camera_position: tuple[float, float, f
     """The calibration a user would make: the floor from the first (empty) frames, the foot point given."""
     import warnings
 
-    from interaction.depth_calibration import calibrate_depth, fit_floor
+    from interaction.depth.calibration import calibrate_depth, fit_floor
 
     stack = np.stack([im.depth_mm for im in images]).astype(np.float32)
     stack[stack == 0] = np.nan

@@ -1,7 +1,7 @@
 """``jostle calibrate``: the webcam → stage homography from an ArUco/ChArUco board, and the board to print.
 
 ``jostle calibrate webcam`` finds the board in a recording (headless) or in a live camera's frames,
-fits the homography (see :mod:`interaction.calibrate_webcam`), reports the reprojection error,
+fits the homography (see :mod:`interaction.webcam.calibrate`), reports the reprojection error,
 refuses a fit above ``--max-error`` with what to do, and writes the calibration TOML — by default
 next to the config given with ``--config`` — plus, if asked, a preview image of the fit.
 """
@@ -107,7 +107,7 @@ def _pair(text: str, flag: str) -> tuple[float, float]:
 
 
 def _board_spec(args: argparse.Namespace) -> Any:
-    from interaction.calibrate_webcam import BoardSpec
+    from interaction.webcam.calibrate import BoardSpec
 
     try:
         cols, rows = (int(x) for x in args.squares.lower().split("x"))
@@ -122,7 +122,7 @@ def _board_spec(args: argparse.Namespace) -> Any:
 def cmd_calibrate_board(args: argparse.Namespace) -> int:
     import cv2
 
-    from interaction.calibrate_webcam import board_image
+    from interaction.webcam.calibrate import board_image
 
     spec = _board_spec(args)
     img = board_image(spec, args.px_per_m)
@@ -135,7 +135,7 @@ def cmd_calibrate_board(args: argparse.Namespace) -> int:
 
 
 def cmd_calibrate_webcam(args: argparse.Namespace) -> int:
-    from interaction.calibrate_webcam import BoardPlacement, CalibrationRefused, detect_board, fit_calibration
+    from interaction.webcam.calibrate import BoardPlacement, CalibrationRefused, detect_board, fit_calibration
 
     spec = _board_spec(args)
     try:
@@ -281,7 +281,7 @@ def cmd_calibrate_depth(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from interaction.depth_calibration import DepthCalibrationError, calibrate_depth, fit_floor
+    from interaction.depth.calibration import DepthCalibrationError, calibrate_depth, fit_floor
     from sensors.base import DepthImage
     from sensors.recording_info import describe_recording, iter_payloads, select_channel
 
@@ -342,7 +342,7 @@ def _accept_in_window(depth_mm: np.ndarray, intrinsics: tuple[float, float, floa
     import cv2
     import numpy as np
 
-    from interaction.depth_calibration import camera_points
+    from interaction.depth.calibration import camera_points
 
     pts, vu = camera_points(depth_mm, intrinsics)
     grey = cv2.normalize(depth_mm, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)  # type: ignore[call-overload, unused-ignore]  # OpenCV 5.0 stubs reject None; 5.1 takes it

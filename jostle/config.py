@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from interaction.observers import observer_types
 from jostle.configtree import ConfigError, build
-from jostle.observers import observer_types
 from jostle.operations_config import HealthConfig, KioskConfig
 from jostle.session_recording import SessionRecordConfig
 from jostle.terrain_layout import QuadrupedGroup, QuadrupedTable, TerrainSection

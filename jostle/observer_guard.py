@@ -30,8 +30,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
+from interaction.observers import Observer
 from interaction.types import BodyObservation, Contactor, Impulse
-from jostle.observers import Observer
 from sensors.base import Frame, PadSample
 from sensors.clock import Clock
 

@@ -3,13 +3,13 @@
 For each seed, the recordings ``jostle bench interaction`` makes for that seed (1 to 4 people crossing the
 stage, walking and punching, 15 fps, 5 s; performer seeds seed + 1 … seed + 4) are made again; the depth
 observer runs over each with the shoe rules alone (``shoe_model = false``), and every foot it finds
-(:func:`interaction.depth_parts.find_feet`'s ``shoe_rows``) within ``MATCH_M`` of a true foot's middle
-(:mod:`jostle.bench_truth`) gives one row: its features (:func:`interaction.shoe_model.column_features`)
+(:func:`interaction.depth.parts.find_feet`'s ``shoe_rows``) within ``MATCH_M`` of a true foot's middle
+(:mod:`jostle.bench_truth`) gives one row: its features (:func:`interaction.depth.shoe_model.column_features`)
 and the correction that would have put it there, along the camera's view, across it and up. The rows of
-all seeds, in seed order, are the model (:meth:`interaction.shoe_model.ShoeModel.save`); the same seeds
+all seeds, in seed order, are the model (:meth:`interaction.depth.shoe_model.ShoeModel.save`); the same seeds
 make the same model (the same arrays).
 
-The shipped model (``interaction/data/shoe_model.npz``) was made with seeds 300, 400, … 5000 (k = 10:
+The shipped model (``interaction/depth/data/shoe_model.npz``) was made with seeds 300, 400, … 5000 (k = 10:
 36,253 feet, 8 min 51 s with ``--jobs 2`` here); the bench scores seeds 0 (its default), 100 and 200,
 never among them. Measured there (``jostle bench interaction --json --seed S``,
 ``depth_extremity_error_m_p95`` of hands and feet), the shoe rules alone (``--no-shoe-model``) → with the
@@ -45,7 +45,7 @@ BENCH_SEEDS = (0, 100, 200)  # what the bench scores: never made into the model
 def seed_rows(seed: int, folder: Path, duration: float = 5.0, fps: float = 15.0,
               people: tuple[int, ...] = (1, 2, 3, 4)) -> tuple[np.ndarray, np.ndarray]:
     """(features (N, FEATURES), corrections (N, 3)) of the feet found in one seed's recordings."""
-    from interaction.shoe_model import FEATURES
+    from interaction.depth.shoe_model import FEATURES
     from jostle.bench_interaction import _record
 
     features: list[np.ndarray] = []
@@ -64,7 +64,7 @@ def seed_rows(seed: int, folder: Path, duration: float = 5.0, fps: float = 15.0,
 def recording_rows(path: Path) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """The rows of one recording with truth (channels oak and truth)."""
     from interaction.depth import DepthObserver, DepthObserverConfig
-    from interaction.shoe_model import view_frame
+    from interaction.depth.shoe_model import view_frame
     from jostle.bench_interaction import _depth_calibration
     from jostle.bench_truth import part_centres
     from jostle.synth.truth import read_cameras, read_truth
@@ -104,7 +104,7 @@ def fit(seeds: list[int], out: Path, k: int, jobs: int = 1,
         progress: Callable[[int, int, int], None] | None = None) -> dict[str, Any]:
     """Make the model from ``seeds`` into ``out``; ``progress(done, total, rows)`` after each seed. Returns
     a summary (seeds, rows, k, out)."""
-    from interaction.shoe_model import ShoeModel
+    from interaction.depth.shoe_model import ShoeModel
 
     if not seeds:
         raise ValueError("seeds: expected at least one")

@@ -85,7 +85,7 @@ def add(sub: Any) -> None:
         "makes, for other seeds), run the depth observer over them with the shoe rules alone, and keep\n"
         "every foot it finds with the correction that would have put it at the true foot's middle. The\n"
         "depth observer then corrects each foot by the mean of its k most similar feet\n"
-        "(interaction.shoe_model). Seeds 0, 100 and 200 are the bench's: they, and seeds within 3 of them\n"
+        "(interaction.depth.shoe_model). Seeds 0, 100 and 200 are the bench's: they, and seeds within 3 of them\n"
         "(which share performers with them), are refused. The same seeds make the same model (the same\n"
         "arrays). About 25 s of one core per seed.",
         epilog="examples:\n"
@@ -97,13 +97,13 @@ def add(sub: Any) -> None:
     shoes.add_argument("--k", type=int, default=10, help="feet averaged per correction (default 10)")
     shoes.add_argument("--jobs", type=int, default=1, metavar="N", help="seeds recorded at once (default 1)")
     shoes.add_argument("--out", type=Path, default=None, metavar="FILE.npz",
-                       help="where to write it (default: the shipped interaction/data/shoe_model.npz)")
+                       help="where to write it (default: the shipped interaction/depth/data/shoe_model.npz)")
     shoes.add_argument("--json", action="store_true", help="print the summary as JSON")
     shoes.set_defaults(func=cmd_synth_shoe_model)
 
 
 def cmd_synth_shoe_model(args: argparse.Namespace) -> int:
-    from interaction.shoe_model import default_model_path
+    from interaction.depth.shoe_model import default_model_path
     from jostle.cli import UsageError
     from jostle.progress import Progress
     from jostle.shoe_model_fit import check_k, fit, parse_seeds
@@ -177,7 +177,7 @@ def _performer_changes(args: argparse.Namespace) -> dict[str, Any]:
 def cmd_synth_performer(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from interaction.calibration import Calibration
+    from interaction.webcam.calibration import Calibration
     from jostle.cli import UsageError
     from jostle.progress import Progress
     from jostle.synth.config import DepthCameraConfig, PerformerConfig

@@ -9,7 +9,7 @@
     layout = "terrain/steps.toml"   # or inline: rows = ["..1..", ...] and at = [ix, iy]
     hands = true               # a hand held still over a cell places a cube there
     boxes = "oak"              # the depth observer whose frames show real boxes on the floor ("": none)
-    [terrain.observe]          # interaction.terrain_cells.TerrainObserverConfig (hold_s, settle_s, ...)
+    [terrain.observe]          # interaction.depth.terrain_cells.TerrainObserverConfig (hold_s, settle_s, ...)
 
 A layout is a map of heights seen from above with the audience at the bottom: one string per row of
 cells, one character per cell — ``.`` or ``0`` bare floor, ``1``–``9`` that many cubes; characters run
@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from interaction.terrain_cells import FloorGrid, TerrainObserverConfig
+from interaction.depth.terrain_cells import FloorGrid, TerrainObserverConfig
 from sim.quadruped.config import QuadrupedSpec
 
 __all__ = ["LayoutError", "QuadrupedGroup", "QuadrupedTable", "TerrainLayout", "TerrainSection", "parse_rows",

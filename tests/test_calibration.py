@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from interaction.calibration import Calibration, CalibrationError
+from interaction.webcam.calibration import Calibration, CalibrationError
 
 W, H = 640, 480
 # Image corners → a stage trapezoid (the camera looks a little down: the floor row is narrower).

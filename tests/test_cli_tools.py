@@ -49,7 +49,7 @@ def test_synth_performer_writes_recording_and_calibration(tmp_path: Path) -> Non
     assert main(["synth", "performer", "--clip", "walk", "--duration", "1", "--size", "160x120",
                  "--out", str(out)]) == 0
     assert describe_recording(out).channels[0].message_count == 15
-    from interaction.calibration import Calibration
+    from interaction.webcam.calibration import Calibration
 
     calibration = Calibration.load(out.with_suffix(".calibration.toml"))
     assert calibration.plane_y == 0.0

@@ -8,11 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from interaction import depth_parts
-from interaction.depth_calibration import DepthCalibration
-from interaction.depth_parts import FLOOR_CUT_M, FineDepth, find_feet
-from interaction.limb_tracks import LimbTracker
-from interaction.shoe_fit import HANGING_FROM_M, SHOE_HEIGHT_M, lies_flat, shoe_middle_height
+import interaction.depth.parts as depth_parts
+from interaction.depth.calibration import DepthCalibration
+from interaction.depth.fine_depth import FineDepth
+from interaction.depth.limb_tracks import LimbTracker
+from interaction.depth.parts import FLOOR_CUT_M, find_feet
+from interaction.depth.shoe_fit import HANGING_FROM_M, SHOE_HEIGHT_M, lies_flat, shoe_middle_height
 from jostle.bench_truth import sampled_truth_angles
 from jostle.synth.truth import PersonTruth, TruthFrame
 from sensors.base import DepthImage

@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from interaction.depth_calibration import DepthCalibration
-from interaction.depth_parts import FineDepth
+from interaction.depth.calibration import DepthCalibration
+from interaction.depth.fine_depth import FineDepth
 from sensors.base import DepthImage
 
 W, H, F = 640, 400, 440.0

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from interaction.depth import DepthObserver, DepthObserverConfig
-from interaction.depth_calibration import DepthCalibration, calibrate_depth, fit_floor
+from interaction.depth.calibration import DepthCalibration, calibrate_depth, fit_floor
 from interaction.types import BodyObservation
 from jostle.bench_truth import visible_people
 from jostle.synth.truth import TruthFrame, read_cameras, read_truth
@@ -175,7 +175,7 @@ def test_velocity_of_a_moving_box_has_the_stated_latency() -> None:
 
 
 def test_the_observer_table_builds_a_depth_observer(tmp_path: Path) -> None:
-    from jostle.observers import observer_types
+    from interaction.observers import observer_types
 
     path = FIXTURES / "crossing2.mcap"
     frames = _frames(path)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from interaction.depth import DepthObserver, DepthObserverConfig
-from interaction.hidden_people import CONFIRM_FRAMES, HiddenPeople
+from interaction.depth.hidden_people import CONFIRM_FRAMES, HiddenPeople
 from interaction.people import split_side_by_side
 from jostle.bench_interaction import _depth_calibration
 from jostle.bench_truth import visible_people

@@ -12,13 +12,13 @@ from typing import Any
 
 import pytest
 
+from interaction.observers import Observer, ObserverType, observer_types
 from interaction.pads import PadsObserver, PadsObserverConfig
 from interaction.types import BodyObservation, Contactor
 from jostle import app as app_module
 from jostle.app import App, RunOptions
 from jostle.config import JostleConfig, ObserverEntry, SensorEntry, load_config
 from jostle.observer_guard import ObserverGuard
-from jostle.observers import Observer, ObserverType, observer_types
 from sensors.base import Frame, PadSample
 from sensors.clock import SimClock
 

@@ -6,12 +6,12 @@ from pathlib import Path
 
 import pytest
 
-from interaction.calibration import Calibration
 from interaction.depth import DepthObserver, DepthObserverConfig
-from interaction.depth_calibration import calibrate_depth, fit_floor
+from interaction.depth.calibration import calibrate_depth, fit_floor
 from interaction.fusion import ID_STRIDE, FusionConfig, SensorFusion
 from interaction.types import BodyObservation, Contactor, Impulse
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
+from interaction.webcam.calibration import Calibration
 from jostle.synth.truth import read_cameras
 from sensors.base import DepthImage, Frame
 from sensors.recording_info import iter_payloads

@@ -9,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from interaction import hand_fit
-from interaction.depth_calibration import DepthCalibration
-from interaction.depth_parts import FineDepth
-from interaction.hand_fit import follow_hand, hand_points
+import interaction.depth.hand_fit as hand_fit
+from interaction.depth.calibration import DepthCalibration
+from interaction.depth.fine_depth import FineDepth
+from interaction.depth.hand_fit import follow_hand, hand_points
 from sensors.base import DepthImage
 
 CAMERA = np.array([0.0, -4.0, 2.4])

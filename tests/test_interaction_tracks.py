@@ -1,4 +1,4 @@
-"""Following hands, feet and people from frame to frame (interaction.limb_tracks, interaction.people)."""
+"""Following hands, feet and people from frame to frame (interaction.depth.limb_tracks, interaction.people)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from interaction.limb_tracks import LimbTracker
+from interaction.depth.limb_tracks import LimbTracker
 from interaction.people import PeopleTracker, find_blobs, outline_points, split_merged
 
 DT = 1 / 15

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from interaction.calibration import Calibration
+from interaction.webcam.calibration import Calibration
 from jostle.cli import main
 from jostle.synth.pads import default_pad_layout
 from jostle.synth.truth import (

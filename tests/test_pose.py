@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from pose_fixtures import hand_annotations, photo, pose_model
 
-from interaction.calibration import Calibration
-from interaction.pose import KEYPOINT_NAMES, Keypoints, PoseCrop, PoseModel, PoseModelError
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
+from interaction.webcam.calibration import Calibration
+from interaction.webcam.pose import KEYPOINT_NAMES, Keypoints, PoseCrop, PoseModel, PoseModelError
 from sensors.base import ColorImage, Frame
 
 FACE = {"nose", "left_eye", "right_eye", "mouth_left", "mouth_right", "right_ear", "left_ear"}

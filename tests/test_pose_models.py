@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from pose_fixtures import model_dir
 
-from interaction.pose_models import (
+from interaction.webcam.pose_models import (
     MODEL_FILES,
     WHEEL,
     ModelFetchError,

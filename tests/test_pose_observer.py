@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from pose_fixtures import model_dir, photo, pose_model
 
-from interaction.calibration import Calibration
-from interaction.pose import LIMBS
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
+from interaction.webcam.calibration import Calibration
+from interaction.webcam.pose import LIMBS
 from sensors.base import ColorImage, Frame
 
 W, H, FPS, LEARN = 640, 480, 30.0, 8

@@ -239,7 +239,7 @@ def test_gif(tmp_path: Path) -> None:
 
 
 def test_silhouette_is_drawn_on_the_stage_where_the_calibration_puts_it(renderer: Renderer, kset: KeyframeSet) -> None:
-    from interaction.calibration import Calibration
+    from interaction.webcam.calibration import Calibration
 
     # a 160×120 camera image covering stage x ∈ [−1, 1], z ∈ [2, 0] (rows top to bottom) on the plane y = 0.5
     calib = Calibration.from_correspondences(

@@ -1,4 +1,4 @@
-"""The depth observer's shoe model (interaction.shoe_model) and how it is made (jostle.shoe_model_fit)."""
+"""The depth observer's shoe model (interaction.depth.shoe_model) and how it is made (jostle.shoe_model_fit)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from interaction.depth import DepthObserver, DepthObserverConfig
-from interaction.shoe_model import (
+from interaction.depth.shoe_model import (
     FEATURES,
     ShoeModel,
     column_features,
@@ -173,7 +173,7 @@ def test_rows_are_the_feet_found_with_their_corrections_and_the_same_each_time(c
 
 def test_without_its_file_the_observer_says_so_and_places_feet_by_the_rules(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
-    import interaction.shoe_model as shoe_model
+    import interaction.depth.shoe_model as shoe_model
 
     monkeypatch.setattr(shoe_model, "default_model_path", lambda: tmp_path / "missing.npz")
     shoe_model.shipped_shoe_model.cache_clear()

@@ -1,4 +1,4 @@
-"""interaction.terrain_cells: boxes on the floor seen by a (virtual) depth camera, and hands held still.
+"""interaction.depth.terrain_cells: boxes on the floor seen by a (virtual) depth camera, and hands held still.
 
 The depth frames are ray-cast from a known scene (floor + axis-aligned boxes) with the virtual OAK's
 camera and its stereo error model (jostle.synth), so the right answer is known by construction.
@@ -12,15 +12,15 @@ import math
 import numpy as np
 import pytest
 
-from interaction.depth_calibration import DepthCalibration
-from interaction.terrain_cells import (
+from interaction.depth.calibration import DepthCalibration
+from interaction.depth.terrain_cells import (
     CellReport,
     FloorGrid,
     PlacementRequest,
     TerrainObserver,
     TerrainObserverConfig,
 )
-from interaction.terrain_points import StagePoints
+from interaction.depth.terrain_points import StagePoints
 from interaction.types import BodyObservation, Contactor
 from jostle.synth.camera import PinholeCamera
 from jostle.synth.config import DepthCameraConfig
@@ -229,7 +229,7 @@ def test_a_box_off_the_grid_counts_once_in_the_cell_its_lid_covers_most(dx: floa
                                                                          cell: tuple[int, int]) -> None:
     """Off along x or y either way: the cell holding most of the lid. Along y the box's side facing the
     camera stands in the other cell, its top rows as high as the lid: their points count for (almost) no
-    floor area there (interaction.terrain_points), so that cell does not look covered."""
+    floor area there (interaction.depth.terrain_points), so that cell does not look covered."""
     obs = TerrainObserver(GRID, TerrainObserverConfig(), calibration())
     (x0, y0, _), (x1, y1, z1) = cube_column(5, 4, 1)
     shift = np.array([dx, dy, 0.0]) * GRID.cell

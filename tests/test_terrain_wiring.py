@@ -11,7 +11,7 @@ import pytest
 from test_terrain_cells import calibration, cube_column, depth_frame
 
 from interaction.depth import DepthObserver, DepthObserverConfig
-from interaction.terrain_cells import CellReport, TerrainObserverConfig
+from interaction.depth.terrain_cells import CellReport, TerrainObserverConfig
 from interaction.types import BodyObservation, Contactor
 from jostle.app import App, RunOptions
 from jostle.config import ConfigError, load_config

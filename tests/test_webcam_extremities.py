@@ -14,11 +14,11 @@ import cv2
 import numpy as np
 import pytest
 
-from interaction.calibration import Calibration
 from interaction.people import Blob, find_blobs, outline_points
-from interaction.silhouette import BackgroundModel
-from interaction.silhouette_parts import feet, join_fragments, split_people
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
+from interaction.webcam.calibration import Calibration
+from interaction.webcam.silhouette import BackgroundModel
+from interaction.webcam.silhouette_parts import feet, join_fragments, split_people
 from sensors.base import ColorImage, Frame
 
 W, H = 320, 240

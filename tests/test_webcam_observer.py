@@ -17,9 +17,9 @@ import cv2
 import numpy as np
 import pytest
 
-from interaction.calibration import Calibration
 from interaction.types import BodyObservation
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
+from interaction.webcam.calibration import Calibration
 from sensors.base import ColorImage, DepthImage, Frame
 
 FPS = 30.0

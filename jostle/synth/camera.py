@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from interaction.calibration import round_off_zeros
+from interaction.webcam.calibration import round_off_zeros
 
 
 @dataclass(frozen=True)

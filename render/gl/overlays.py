@@ -11,7 +11,7 @@ from types import ModuleType
 import cv2
 import numpy as np
 
-from interaction.calibration import Calibration
+from interaction.webcam.calibration import Calibration
 from render.gl.context import attribute, gen, uniform, uniform_matrix, upload
 from render.gl.effects import Hud
 from render.gl.style import RenderStyle, rgb

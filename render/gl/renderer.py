@@ -20,8 +20,8 @@ from types import ModuleType
 import cv2
 import numpy as np
 
-from interaction.calibration import Calibration
 from interaction.types import BodyObservation
+from interaction.webcam.calibration import Calibration
 from render.gl import shaders
 from render.gl.context import (
     Framebuffer,

@@ -5,19 +5,18 @@ force falls below ``release_n`` < ``onset_n``: hysteresis, so noise around one t
 split a hit or start a new one). A pad is re-armed only after its release and ``rearm_s`` of rest.
 
 When the impulse leaves (``emit``):
-
 - ``"peak"`` (default): as soon as the peak is known — the force has fallen ``peak_drop`` (a
   fraction) below the highest value so far, or the hit was released. Latency is the rise time plus
   about one sample, which is what a shove needs. The size is estimated assuming the pulse falls as
   it rose: impulse J ≈ 2 × ∫ F dt from the onset to the peak, the peak's time found between the
   samples by a parabola through the highest sample and its two neighbours.
 - ``"release"``: at the release, with the whole pulse measured (J = ∫ F dt, trapezoids over the
-  samples, the ramp from and back to the last sample below ``release_n`` included). Exact, but
-  late by the whole contact time (a long push arrives only when it ends).
+  samples, the ramp from and back to the last sample below ``release_n`` included). Exact, but late
+  by the whole contact time.
 
-Either way the impulse carries the peak force along the pad's direction and the duration
-J / peak, so force × duration is the hit's impulse. Each pad is mapped in the config to a stage
-position (the sim applies the impulse to the character nearest to it) and a push direction.
+Either way the impulse carries the peak force (newtons) along the pad's direction and the duration
+J / peak (seconds), so force × duration is the hit's impulse; each pad is mapped in the config to a
+stage position (the sim pushes the character nearest to it) and a push direction.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from interaction.depth_calibration import DepthCalibration
+from interaction.depth.calibration import DepthCalibration
 from sensors.base import DepthImage
 
 __all__ = ["StagePoints"]

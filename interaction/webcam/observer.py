@@ -1,21 +1,19 @@
 """The webcam observer: colour frames of people → contactors in stage metres.
 
 Per frame: foreground against the frozen background (light change undone, shadows suppressed,
-cleaned by morphology; see :mod:`interaction.silhouette`), blobs → people (pieces under a body
-joined to it, people who walked into each other cut apart; :mod:`interaction.silhouette_parts`)
+cleaned by morphology; see :mod:`interaction.webcam.silhouette`), blobs → people (pieces under a body
+joined to it, people who walked into each other cut apart; :mod:`interaction.webcam.silhouette_parts`)
 with ids kept by nearest centroid, points along each outline plus head and hands
 (:mod:`interaction.people`) and feet at the middles of the leg ends, each with a velocity from DIS
-dense optical flow (in boxes around the people; :mod:`interaction.people_flow`), all mapped through
+dense optical flow (in boxes around the people; :mod:`interaction.webcam.people_flow`), all mapped through
 the :class:`Calibration` onto the stage plane. A hand or foot that cannot be placed (legs hidden by a
 background like them, a person cut from others) is left out rather than reported at a wrong place.
-With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.pose`) add hands and feet as
+With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.webcam.pose`) add hands and feet as
 contactors with their own velocities. Pure of hardware: feed it :class:`sensors.Frame` objects from
 anywhere.
 
 A frame allocates no image-sized arrays but the one it hands out (the people's mask) and the flow DIS
-returns: the work arrays are kept from frame to frame. (Fresh ones, ~10 MB a 640×480 frame, were often
-handed back to the system and page-faulted in again, up to ~1000 minor faults a frame: ≈ 0.5 ms of CPU
-of a 4.4 ms frame on average, more on a loaded machine.)
+returns: the work arrays are kept from frame to frame (why: docs/notes/webcam.md).
 """
 
 from __future__ import annotations
@@ -28,15 +26,15 @@ import cv2
 import numpy as np
 import numpy.ma  # noqa: F401  np.median imports it on first use (~16 ms): at import, not in the first frame
 
-from interaction.calibration import Calibration
 from interaction.people import Blob, PeopleTracker, find_blobs, outline_points
-from interaction.people_flow import joined_boxes, median_flow
-from interaction.pose import Keypoints, PoseModel, PoseModelError, PoseTracker
-from interaction.pose_models import default_model_dir, find_models
-from interaction.silhouette import BackgroundModel
-from interaction.silhouette_parts import PersonBlob, feet, join_fragments, split_people
 from interaction.types import BodyObservation, Contactor
-from interaction.webcam_config import FlowPreset, WebcamObserverConfig
+from interaction.webcam.calibration import Calibration
+from interaction.webcam.config import FlowPreset, WebcamObserverConfig
+from interaction.webcam.people_flow import joined_boxes, median_flow
+from interaction.webcam.pose import Keypoints, PoseModel, PoseModelError, PoseTracker
+from interaction.webcam.pose_models import default_model_dir, find_models
+from interaction.webcam.silhouette import BackgroundModel
+from interaction.webcam.silhouette_parts import PersonBlob, feet, join_fragments, split_people
 from sensors.base import ColorImage, Frame
 
 __all__ = ["WebcamObserver", "WebcamObserverConfig"]
@@ -283,7 +281,7 @@ class WebcamObserver:
 
     def _contactors(self, person: int, blob: PersonBlob, people: np.ndarray, dt: float) -> list[Contactor]:
         """One person's contactors; ``dt`` ≤ 0 gives them no velocity (first sight, no interval).
-        Feet are the middles of the leg ends (:func:`interaction.silhouette_parts.feet`), not the
+        Feet are the middles of the leg ends (:func:`interaction.webcam.silhouette_parts.feet`), not the
         lowest outline points; a person cut apart from others gets no hands from the outline (its
         torso, which tells an arm held out from the body, is partly the cut)."""
         cfg = self._cfg
@@ -329,9 +327,7 @@ class WebcamObserver:
     ) -> list[Contactor]:
         """Hands and feet from each person's body keypoints, where they lie on the silhouette. Their
         velocity is the optical flow at the limb, or the keypoints' smoothed motion where there is no
-        flow (a person's first frames). Measured: keypoints jitter by ~10 px between frames of a
-        sliding photograph, and on the virtual performer the flow's hand and foot velocities are off
-        by a median 0.2–0.33 m/s, the keypoints' (1€-filtered) by 0.5–1.0 m/s."""
+        flow (a person's first frames): the flow is the better of the two (docs/notes/webcam.md)."""
         assert self._pose is not None
         sil = self.silhouette
         if sil is None:
@@ -365,7 +361,7 @@ def _pose_tracker(config: WebcamObserverConfig) -> PoseTracker | None:
     folder = Path(config.pose_model_dir).expanduser() if config.pose_model_dir else default_model_dir()
     if find_models(folder) is None:
         log.warning("webcam observer: pose: no model files in %s (fetch them with `python -m "
-                    "interaction.pose_models`); running silhouette-only, without body keypoints", folder)
+                    "interaction.webcam.pose_models`); running silhouette-only, without body keypoints", folder)
         return None
     try:
         model = PoseModel.from_dir(folder)

@@ -1,31 +1,17 @@
 """Which of the points seen near an arm's tip are its hand, chosen across the view.
 
-A hand is the part of an arm farthest out from its shoulder, a hand's size deep. Chosen on the points'
-3D positions, the depth's noise chooses with it: along the viewing ray a point is off by the stereo
-error (≈ 6 cm at 5 m for an OAK, a third of it on the 3×3 median), across it by a fraction of a pixel,
-so where an arm points partly along the ray the points whose noise put them farther out along it are
-taken, and their average is off along the ray by as much. :func:`hand_points` measures "out along the
-arm" across the view only (the points and the arm's direction with their part along the ray through
-the tip taken out), where a hand's size is foreshortened by the share of the arm seen across the view.
-An arm pointing at the camera (less than ``MIN_ACROSS`` of it across the view) shows no length there:
-its hand is chosen on the 3D positions.
+A hand is the part of an arm farthest out from its shoulder, a hand's size deep. Along the viewing
+ray a depth point is off by the stereo error, across it by a fraction of a pixel, so
+:func:`hand_points` measures "out along the arm" across the view only (the points' and the arm's
+part along the ray through the tip taken out); an arm pointing at the camera (less than
+``MIN_ACROSS`` of it across the view) has its hand chosen on the 3D positions.
 
-Measured on the virtual performer (``jostle bench interaction``, 15 fps, seeds 0 and 100): hands more
-than 5 cm off 21 → 20 and 15 → 11, hands' p95 0.055 → 0.054 and 0.047 → 0.044 m.
+The arm's end found on the sampled points is not always its hand's (a hand hanging by the hip lies
+lower and nearer the body than the forearm over it), so :func:`follow_hand` looks again around the
+middle of the points chosen while that lies more than a hand's radius from where it looked,
+``LOOKS`` times at most; a look within reach of a leg is a thigh, not the hand. Stage metres.
 
-The arm's end found on the sampled points is not always its hand's: hands are looked for above half the
-person's height and out of the torso, and a hand hanging by the hip is lower and nearer the body than
-the forearm over it; its points are then out of reach of the points looked at around the tip (14 cm),
-and the hand was put 6–32 cm up the forearm (9 (3) of the 20 (11) hands more than 5 cm off). So
-:func:`follow_hand` looks again around the middle of the points chosen while that lies more than a
-hand's radius from where it looked (the arm goes on past what was looked at), ``LOOKS`` times at most.
-A look drawn within reach of a leg (the line from a foot up to the hips, where the arm's end is not
-looked for either) is a thigh's surface, not the hand: the hand is the one found before it. On the performer a hand is looked for 1.7 times on average; hands more
-than 5 cm off 20 → 9 (11 → 4; seed 200, not used to choose: 14 → 4), hands' p95 0.054 → 0.037
-(0.044 → 0.033; 0.048 → 0.032) m, hands and feet 0.061 → 0.060 (0.061 → 0.058; 0.063 → 0.061) m,
-found share and frame rate unchanged. Up to 2 / 3 looks: 0.060 / 0.060 (0.060 / 0.059) m; looking
-again only when the hand found is 8 / 10 cm off: 0.060 / 0.061 (0.060 / 0.061); holding each look to
-within 45–60° of the line from the shoulder instead of off the legs loses most of it (0.061 (0.060)).
+Figures and what was tried: docs/notes/depth-parts.md.
 """
 
 from __future__ import annotations

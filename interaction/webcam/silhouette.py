@@ -14,7 +14,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from interaction.webcam_config import WebcamObserverConfig
+from interaction.webcam.config import WebcamObserverConfig
 
 __all__ = ["BackgroundModel"]
 

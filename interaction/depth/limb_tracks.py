@@ -9,14 +9,11 @@ often a knee or a noise blob taken for one — never becomes a contactor); ``con
 other counts for some parts (the depth observer's feet: 1, a foot found is a foot). Its position is
 the frame's own measurement (no lag).
 
-Its *velocity* is the frame-to-frame one (the last two positions; it lags half a frame). Measured
-on the virtual performer at 15 fps, every smoothing tried (alpha-beta gains 0.5/0.2 to 0.8/0.5,
-averaging two steps) lagged more than it removed noise: the direction errors grew. So instead of
-smoothing, the velocity is *claimed* only when it can be backed: the track has followed its
-prediction within ``steady_m`` for ``steady_frames`` frames, and its last two steps agree in
-direction (within ``consistent_deg``) at ``min_speed`` or more; otherwise the contactor carries a
-zero velocity (no speed is claimed that the depth's noise, ≈ 1.5 cm per hand or foot, could have
-made: at 15 fps that noise alone is ≈ 0.3 m/s).
+Its *velocity* is the frame-to-frame one (the last two positions; it lags half a frame), not
+smoothed: it is *claimed* only when it can be backed — the track has followed its prediction within
+``steady_m`` for ``steady_frames`` frames, and its last two steps agree in direction (within
+``consistent_deg``) at ``min_speed`` or more; otherwise the contactor carries a zero velocity.
+Why not smoothed: docs/notes/depth.md.
 """
 
 from __future__ import annotations

@@ -1,21 +1,17 @@
 """Where a foot's middle is, corrected by the shoes most like it among feet seen with their truth known.
 
-:func:`interaction.depth_parts.find_feet` measures a foot on the column of depth points over it and
-puts its height from a generic shoe's shape (:mod:`interaction.shoe_fit`). What those rules cannot tell
-from one column (a heel up, a toe hanging, a shoe half seen) leaves a foot's middle off by more than 5 cm
-in one case in ten, most of them raised feet whose height the points do not give. A :class:`ShoeModel`
-corrects each foot by the mean correction of the ``k`` feet most like it (nearest neighbours, on
-:func:`column_features` scaled to unit spread) among feet of virtual performers whose true middles are
-known: along the camera's view, across it, and up. The model is those feet's features and corrections
-(``interaction/data/shoe_model.npz``, made by ``jostle synth shoe-model``: performer recordings with
-truth, ``jostle.shoe_model_fit``); nothing is learnt at run time.
+:func:`interaction.depth.parts.find_feet` measures a foot on the column of depth points over it and
+puts its height from a generic shoe's shape (:mod:`interaction.depth.shoe_fit`). What those rules
+cannot tell from one column (a heel up, a toe hanging, a shoe half seen) a :class:`ShoeModel`
+corrects: each foot moves by the mean correction of the ``k`` feet most like it (nearest neighbours,
+on :func:`column_features` scaled to unit spread) among feet of virtual performers whose true middles
+are known — along the camera's view, across it, and up (metres). The model is those feet's features
+and corrections (``interaction/depth/data/shoe_model.npz``, made by ``jostle synth shoe-model``:
+performer recordings with truth, ``jostle.shoe_model_fit``); nothing is learnt at run time.
 
-It knows the virtual performer's shoe (a 26 × 10 × 8 cm box), its gait (two mocap clips) and its depth
-camera's noise, not a real shoe: on real people it can only be as right as those are like theirs. It looks
-at one frame's column only (no motion), so it cannot recognise where in a clip a foot is: its p50 moves
-from 2.1 to 1.6 cm, not to the millimetres a model that learnt the clips would show. Measured on the virtual
-performer (``jostle bench interaction``, seeds 0, 100 and 200, never in the model's recordings): see
-``jostle.shoe_model_fit``.
+It knows the virtual performer's shoe (a 26 × 10 × 8 cm box), its gait (two mocap clips) and its
+depth camera's noise, not a real shoe: on real people it can only be as right as those are like
+theirs. It looks at one frame's column only (no motion). Figures: docs/notes/shoe-fit.md.
 """
 
 from __future__ import annotations
@@ -76,7 +72,7 @@ def column_features(column: np.ndarray, camera: np.ndarray, rule_height: float |
     how far its lowest 3 cm lie from the leg over them (12–20 cm; −1 when either is missing); how much
     farther along the view its top is than its bottom; for five 3 cm slices over the lowest, how wide
     the slice is, how far its middle is from the leg's (15–25 cm) and its share of the points; whether
-    the shoe rules (:func:`interaction.shoe_fit.shoe_middle_height`) put it on the floor, hanging, or
+    the shoe rules (:func:`interaction.depth.shoe_fit.shoe_middle_height`) put it on the floor, hanging, or
     neither; and the mean height of its shoe's points."""
     z = column[:, 2]
     ordered = np.sort(z)

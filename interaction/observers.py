@@ -1,5 +1,9 @@
 """The one table of observer types: ``type`` in an ``[observers.<name>]`` table → its config class and
-how to build it. Add an observer kind by adding a row here."""
+how to build the observer.
+
+The config classes are imported here (none needs OpenCV); a builder imports its observer module only
+when called, as :mod:`sensors.registry` does for drivers. Add an observer kind by adding a row here.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +12,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
+from interaction.depth.config import DepthObserverConfig
+from interaction.pads.observer import PadsObserverConfig
 from interaction.types import BodyObservation
+from interaction.webcam.config import WebcamObserverConfig
 from sensors.base import Frame
 
 
@@ -24,56 +31,41 @@ class ObserverType:
     description: str
 
 
-def _webcam_config() -> type:
-    from interaction.webcam import WebcamObserverConfig
-
-    return WebcamObserverConfig
-
-
 def _build_webcam(config: Any, calibration: Path | None, sensor: str) -> Observer:
-    from interaction.calibration import Calibration
-    from interaction.webcam import WebcamObserver, WebcamObserverConfig
+    from interaction.webcam.calibration import Calibration
+    from interaction.webcam.observer import WebcamObserver
 
     if not isinstance(config, WebcamObserverConfig) or calibration is None:
         raise TypeError("webcam observer: expected a WebcamObserverConfig and a calibration file")
     return WebcamObserver(config, Calibration.load(calibration))
 
 
-def _pads_config() -> type:
-    from interaction.pads import PadsObserverConfig
-
-    return PadsObserverConfig
-
-
 def _build_pads(config: Any, calibration: Path | None, sensor: str) -> Observer:
-    from interaction.pads import PadsObserver, PadsObserverConfig
+    from interaction.pads.observer import PadsObserver
 
     if not isinstance(config, PadsObserverConfig):
         raise TypeError("pads observer: expected a PadsObserverConfig")
     return PadsObserver(config, sensor)
 
 
-def _depth_config() -> type:
-    from interaction.depth import DepthObserverConfig
-
-    return DepthObserverConfig
-
-
 def _build_depth(config: Any, calibration: Path | None, sensor: str) -> Observer:
-    from interaction.depth import DepthObserver, DepthObserverConfig
-    from interaction.depth_calibration import DepthCalibration
+    from interaction.depth.calibration import DepthCalibration
+    from interaction.depth.observer import DepthObserver
 
     if not isinstance(config, DepthObserverConfig) or calibration is None:
         raise TypeError("depth observer: expected a DepthObserverConfig and a calibration file")
     return DepthObserver(config, DepthCalibration.load(calibration))
 
 
+OBSERVER_TYPES: dict[str, ObserverType] = {
+    "webcam": ObserverType(WebcamObserverConfig, _build_webcam, True,
+                           "silhouette, optical flow (and pose keypoints) → contactors, from colour frames"),
+    "depth": ObserverType(DepthObserverConfig, _build_depth, True,
+                          "depth frames → floor-grid people → head, hands, feet and body hull spheres"),
+    "pads": ObserverType(PadsObserverConfig, _build_pads, False, "force pads → one impulse per hit"),
+}
+
+
 def observer_types() -> dict[str, ObserverType]:
-    """The table (built on call: the config classes live in modules that import OpenCV)."""
-    return {
-        "webcam": ObserverType(_webcam_config(), _build_webcam, True,
-                               "silhouette, optical flow (and pose keypoints) → contactors, from colour frames"),
-        "depth": ObserverType(_depth_config(), _build_depth, True,
-                              "depth frames → floor-grid people → head, hands, feet and body hull spheres"),
-        "pads": ObserverType(_pads_config(), _build_pads, False, "force pads → one impulse per hit"),
-    }
+    """A copy of the table (callers may change their copy: tests put wrapped builders in it)."""
+    return dict(OBSERVER_TYPES)

@@ -1,30 +1,21 @@
 """The terrain people build, as interaction/ sees it: boxes standing on the floor (depth camera) and
 hands held still over a floor cell (any observer's contactors), on a grid of floor cells.
 
-:class:`FloorGrid` is the geometry: square cells of ``cell`` metres (a unit cube is ``cell`` tall too),
-``nx`` × ``ny`` of them, cell (0, 0)'s corner at stage ``origin`` (lowest x, lowest y). Cell (ix, iy)
-covers x in [origin_x + ix·cell, + cell), y likewise. sim/ has its own grid of the same geometry
-(the composition root builds both from one config); nothing here imports sim.
+:class:`FloorGrid` is the geometry (stage metres): ``nx`` × ``ny`` square cells of ``cell`` metres (a
+unit cube is ``cell`` tall too), cell (0, 0)'s corner at ``origin``; sim/ has its own grid of the same
+geometry (the composition root builds both from one config); nothing here imports sim.
 
 :class:`TerrainObserver` yields, beside the body observers and without changing their shapes:
 
 - :meth:`~TerrainObserver.observe_depth`: a :class:`CellReport` per depth frame — every cell holding a
-  box and its height in cubes above the floor plane. Per cell the frame's points (through the depth
-  calibration, floor at z = 0) are sorted into floor points and raised points; the cell's top is a
-  high percentile of its raised points, and it holds a box when the points near that top cover most
-  of the cell — most of its sub-squares, and much of its area (each point stands for the floor area
-  its pixels see: :mod:`interaction.terrain_points`) — a flat top: a person's leg or arm covers a
-  strip, a box's lid the whole cell; the top is no higher than ``max_cubes`` cubes and no person's contactor is near. It is
-  empty when floor points cover most of it and no lid does. Anything else (hidden behind something, a
-  person near, ragged) is unknown. What a cell is changes only after the new answer has held for
-  ``settle_s`` in most frames (``agreement``) and holds in this one (boxes are static for a moment;
-  people move), so a person passing by never leaves a box behind. A "person" all of whose contactors
-  are over box cells is a stack of boxes as tall as a person (the depth observer's people are anything
-  tall enough): its cells are judged, and :attr:`~TerrainObserver.box_people` names it.
-- :meth:`~TerrainObserver.observe_hands`: a :class:`PlacementRequest` when a person's hand, reached out
-  at least ``min_reach_m`` from their head, stays over one floor cell slower than ``hold_speed_mps``
-  for ``hold_s``: exactly one per hold; the hand must move (or leave the cell) to place another.
-  :meth:`~TerrainObserver.holding` says which holds are under way and how far (for feedback on screen).
+  box and its height in cubes. A cell holds a box when the points near its top (a high percentile of
+  its raised points) cover most of it (a lid: :mod:`interaction.depth.terrain_points`) and no person's
+  contactor is near; it is empty when floor points cover it; anything else is unknown. A cell changes
+  only after the new answer has held for ``settle_s`` (``agreement``), so a passer-by leaves no box.
+  :attr:`~TerrainObserver.box_people` names "people" that are stacks of boxes.
+- :meth:`~TerrainObserver.observe_hands`: one :class:`PlacementRequest` per hold — a hand reached out
+  ``min_reach_m`` from the head, over one cell, slower than ``hold_speed_mps`` for ``hold_s``;
+  :meth:`~TerrainObserver.holding` says which holds are under way and how far.
 """
 
 from __future__ import annotations
@@ -34,8 +25,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from interaction.depth_calibration import DepthCalibration
-from interaction.terrain_points import StagePoints
+from interaction.depth.calibration import DepthCalibration
+from interaction.depth.terrain_points import StagePoints
 from interaction.types import BodyObservation, Contactor
 from sensors.base import DepthImage, Frame
 
@@ -120,7 +111,7 @@ class TerrainObserverConfig:
     cover_squares: int = 3  # a cell's sub-squares per side, for how much of it points cover
     min_cover: float = 0.55  # a box's top (the floor) covers at least this fraction of the sub-squares
     min_top_points: int = 6  # … with at least this many points
-    min_lid: float = 0.42  # … and a lid over at least this fraction of its area (interaction.terrain_points)
+    min_lid: float = 0.42  # … and a lid over at least this fraction of its area (interaction.depth.terrain_points)
     max_cubes: int = 4  # taller than this many cubes: not a box (a person, furniture)
     person_clearance_m: float = 0.2  # cells this near a person's contactor are not judged …
     box_person_margin_m: float = 0.15  # … unless all their contactors are this near box cells (a tall stack)

@@ -1,6 +1,6 @@
 """Body keypoints through OpenCV: BlazePose's landmark model run by ``cv2.dnn`` on person crops.
 
-The model (``pose_landmark_full.tflite``, from the mediapipe wheel; see :mod:`interaction.pose_models`)
+The model (``pose_landmark_full.tflite``, from the mediapipe wheel; see :mod:`interaction.webcam.pose_models`)
 takes a 256×256 RGB crop in [0, 1] (NCHW) that holds one person, upright and centred on the hips,
 and gives 33 keypoints (plus 6 of its own for the next crop) as (x, y, z, visibility, presence)
 in crop pixels, a presence score for the whole person, and heatmaps. MediaPipe's person detector
@@ -25,7 +25,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from interaction.pose_models import LANDMARK_FILE, SEGMENTATION_FILE
+from interaction.webcam.pose_models import LANDMARK_FILE, SEGMENTATION_FILE
 
 __all__ = [
     "KEYPOINT_NAMES",
@@ -143,8 +143,7 @@ class Keypoints:
 class PoseModel:
     """The BlazePose landmark model (and, if given, the selfie segmentation model) on ``cv2.dnn``.
 
-    Not thread-safe (one net, one input). Cost per crop on this 2-core machine: ~20 ms idle (the
-    design notes' figure), 70 ms measured while other work loaded it; segmentation ~8 / 34 ms.
+    Not thread-safe (one net, one input). Its cost per crop: docs/notes/webcam.md.
     """
 
     def __init__(self, landmark_path: Path, segmentation_path: Path | None = None, *, refine: bool = True) -> None:
@@ -156,7 +155,7 @@ class PoseModel:
 
     @classmethod
     def from_dir(cls, directory: Path, *, refine: bool = True) -> PoseModel:
-        """Both models from a folder made by :mod:`interaction.pose_models`."""
+        """Both models from a folder made by :mod:`interaction.webcam.pose_models`."""
         seg = directory / SEGMENTATION_FILE
         return cls(directory / LANDMARK_FILE, seg if seg.is_file() else None, refine=refine)
 
@@ -194,7 +193,7 @@ class PoseModel:
 
 def _load(path: Path) -> cv2.dnn.Net:
     if not path.is_file():
-        raise PoseModelError(f"{path}: no such model file (fetch it: python -m interaction.pose_models)")
+        raise PoseModelError(f"{path}: no such model file (fetch it: python -m interaction.webcam.pose_models)")
     if not hasattr(cv2.dnn, "readNetFromTFLite"):
         raise PoseModelError(f"{path}: this OpenCV ({cv2.__version__}) cannot read TFLite models; OpenCV 5 can")
     try:

@@ -9,11 +9,8 @@ appeared (new, or back after going unseen) after their last sighting — or spli
 predicted): then the tracker has lost them and found them again under another id (a lunging arm cut off as a blob of
 its own took the body's track, or a blob split in two), and counting both would count one person twice.
 Someone first seen beside a person already there is counted from their ``CONFIRM_FRAMES``-th frame
-(``unconfirmed``). Measured on ``jostle bench interaction``'s recordings (4 recordings of 1–4 people each),
-frames with the wrong count, before → after (with the waist/head test of
-``interaction.people.split_side_by_side``): at the bench's 15 fps, seeds 0, 7, 42, 55, 100: 2, 5, 18, 5, 9
-→ 0, 0, 0, 1, 0 (of ~225 each); at the installations' 30 fps, seeds 0, 7, 100: 22, 10, 28 → 0, 0, 0 (of
-~465). The rules were made on seeds 0 and 100 (15 and 30 fps) and 42; seeds 7 and 55 were only measured.
+(``unconfirmed``).
+Figures (frames with the wrong count, before and after): docs/notes/depth.md.
 """
 
 from __future__ import annotations

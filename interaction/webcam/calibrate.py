@@ -2,23 +2,18 @@
 
 Two placements (:class:`BoardPlacement`):
 
-- ``"screen"``: the board hangs (or is shown) upright in the stage plane ``y = plane_y`` — on the
-  projection screen, on a wall, on a stand where people will stand. Its corners give pixel ↔
-  stage (x, z) pairs directly: the fitted homography *is* the calibration.
-- ``"floor"``: the board lies flat on the stage floor, its top edge toward the screen. The
-  homography floor → image is fitted, the camera's focal length is found from it (square pixels,
-  principal point at the image centre — true of webcams to a few percent), and from that the
-  camera's pose; the homography of the upright plane ``y = plane_y`` follows. Less exact than
-  ``"screen"``: it leans on that camera model, and the focal length from one board is sensitive to
-  corner noise (measured on a rendered 0.6 × 0.84 m board 2.5 m from the camera: corners within
-  0.5 px, focal length 5 % off, the upright plane off by up to 15 px of 640 at 2 m height). The
-  focal length is reported as a check.
+- ``"screen"``: the board hangs (or is shown) upright in the stage plane ``y = plane_y``. Its corners
+  give pixel ↔ stage (x, z) pairs directly: the fitted homography *is* the calibration.
+- ``"floor"``: the board lies flat on the stage floor, its top edge toward the screen. The homography
+  floor → image is fitted, the camera's focal length found from it (square pixels, principal point at
+  the image centre), and from that the camera's pose; the homography of the upright plane
+  ``y = plane_y`` follows. Less exact than ``"screen"`` (it leans on that camera model, and one
+  board's focal length is sensitive to corner noise: docs/notes/webcam.md); the focal length is reported.
 
 Board frame: OpenCV's, metres from the board's top-left corner, x to the right, y down the board.
 The fit pools the corners of every frame where the board was found (the board must not move), drops
 outliers (RANSAC, 3 px), then fits by least squares. The reprojection error (pixels, RMS and worst)
-of the corners under the fitted homography is reported; a fit above ``max_rms_px`` is refused with
-a message that says what to do.
+is reported; a fit above ``max_rms_px`` is refused with a message that says what to do.
 """
 
 from __future__ import annotations
@@ -31,7 +26,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from interaction.calibration import Calibration, CalibrationError, round_off_zeros
+from interaction.webcam.calibration import Calibration, CalibrationError, round_off_zeros
 
 __all__ = [
     "BoardPlacement",

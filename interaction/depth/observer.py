@@ -1,50 +1,20 @@
 """The depth observer: depth frames of people → contactors in stage metres.
 
-Per frame: the depth image (sampled down to ``work_width``) → points with the frame's own
-intrinsics → stage metres through the :class:`DepthCalibration` (floor at z = 0) → cropped to the
-stage volume and lifted off the floor by ``floor_clearance_m``. The points are binned on a
-top-down floor grid; cells that were occupied while the first ``learn_frames`` frames were
-learned (furniture) are left out; connected cells holding something taller than
-``min_height_m`` are people (a blob of two people close together is split by 2-means), tracked
-with stable ids (:class:`interaction.people.PeopleTracker`: nearest to where each is predicted;
-someone hidden for a while is found again within twice ``match_distance_m``). Only points higher
-than ``body_clearance_m`` find people (the floor's stereo noise stays below it); the other points
-within a cell or two of a person's cells (feet, an arm's sparse end) are given to that person.
+Per frame: the depth image (sampled down to ``work_width``) → points through the frame's intrinsics
+and the :class:`DepthCalibration` (stage metres, floor at z = 0), cropped to the stage volume and
+lifted off the floor by ``floor_clearance_m``. The points are binned on a top-down floor grid;
+cells occupied while the first ``learn_frames`` frames were learned are furniture; connected cells
+holding something taller than ``min_height_m`` are people (two close together split by 2-means),
+tracked with stable ids (:class:`interaction.people.PeopleTracker`).
 
-Each person gives a head (the top), a coarse hull of four stacked "body" spheres as wide as their band of the
-body, and hands and feet (:mod:`interaction.depth_parts`): *found* on the sampled points, *measured* on every
-pixel of the full image near them, moved from the surface seen back to the middle of the part. A hand is only
-reported when it is an arm's length out from its shoulder and clear of the torso (and the head) and of the legs,
-and not where the arm goes on behind something nearer (then what is seen is the forearm); feet are the points
-low over the floor under the shins. Hands and feet are followed by :class:`interaction.limb_tracks.LimbTracker`
-(hands reported from their second frame on, feet from their first; velocity claimed only when steady).
+Each person gives a head (the top), four stacked "body" hull spheres, and hands and feet
+(:mod:`interaction.depth.parts`, followed by :class:`interaction.depth.limb_tracks.LimbTracker`).
+``people`` counts those seen plus those hidden behind someone seen (:mod:`interaction.depth.hidden_people`).
+Positions are the frame's own measurement (no lag). Velocities (m/s): a hand's or foot's is the
+frame-to-frame one, claimed only on steady tracks; the head's and the hull's an alpha-beta filter per
+track (``alpha``, ``beta``). Work arrays are kept from frame to frame.
 
-People: ``people`` counts those seen plus those hidden: someone seen in 5 frames or more who
-vanished less than ``hidden_memory_s`` ago next to (``hidden_near_m``) someone still seen is
-behind or merged with them, and still counted (with no contactors of their own) — unless a track born
-about then is there, the same person under a new id (``interaction.hidden_people``).
-
-Latency: a contactor's position is the frame's own measurement (no filtering, no lag). A hand's
-or foot's velocity is the frame-to-frame one (half a frame behind), claimed from its third frame;
-the head's and the hull's are an alpha-beta filter per track (α = 0.6, β = 0.4: 40 % of a sudden
-change of velocity on the first frame, 80 % on the second, 104 % on the third, at most 12 %
-overshoot), which follows a constant velocity with no lag. At the OAK's 30 fps most of a shove is
-felt within ~2 frames (≈ 67 ms) after it shows in the depth; at 15 fps twice that. Processing
-itself (frame in → contactors out) takes ≈ 3 ms of CPU per 640×400 frame on average with 1–4
-people on this machine, 0.15 ms a foot of it the shoe model's (``jostle bench interaction``: depth_fps
-336, latency_ms_p99 7.7 ms; no frame builds whole-image tables except the first of an image size,
-≈ 1 ms; work arrays are kept from frame to frame).
-
-A velocity's direction is limited by the frame rate as much as by the noise: on the virtual
-performer at 15 fps, for hands (feet) moving faster than 0.5 m/s, the frame-to-frame step of their
-exact centres is off the true velocity by p50 8° (12°), p95 34° (51°) — a swing turns and stops
-within a frame — and the step of the measured positions by p95 47° (70°); at 30 fps the exact
-centres' p95 is 29° (39°). Hence velocities are claimed only on steady tracks: a track that followed
-its prediction for 3 frames and whose last two steps turn less than 20° (``limb_steady_frames``,
-``limb_consistent_deg``). On the performer (``jostle bench interaction``, seeds 0 and 100) that claims
-a velocity on 144–160 of the ≈ 650 contactors at a limb moving over 0.5 m/s, p95 28° off; the exact
-centres' steps between the same frames are off by p95 25–29° there, 47–49° over all fast limbs
-(``velocity_direction_error_deg_p95_sampled_truth``). A 15° turn claimed ≈ 115 at 27°; 2 frames, ≈ 200 at 28–32°.
+Latency, cost and velocity figures, and what was tried: docs/notes/depth.md.
 """
 
 from __future__ import annotations
@@ -55,91 +25,18 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from interaction.depth_calibration import DepthCalibration
-from interaction.depth_parts import FineDepth, find_feet, find_hands
-from interaction.hidden_people import HiddenPeople
-from interaction.limb_tracks import LimbTracker
+from interaction.depth.calibration import DepthCalibration
+from interaction.depth.config import DepthObserverConfig
+from interaction.depth.fine_depth import FineDepth
+from interaction.depth.hidden_people import HiddenPeople
+from interaction.depth.limb_tracks import LimbTracker
+from interaction.depth.parts import find_feet, find_hands
+from interaction.depth.shoe_model import shipped_shoe_model
 from interaction.people import PeopleTracker, split_side_by_side
-from interaction.shoe_model import shipped_shoe_model
 from interaction.types import BodyObservation, Contactor
 from sensors.base import DepthImage, Frame
 
 __all__ = ["DepthCalibration", "DepthObserver", "DepthObserverConfig"]
-
-
-def _check(name: str, value: object, lo: float, hi: float) -> None:
-    if not isinstance(value, int | float) or isinstance(value, bool) or not lo <= value <= hi:
-        raise ValueError(f"{name}: expected a number {lo}..{hi}, got {value!r}")
-
-
-@dataclass(frozen=True)
-class DepthObserverConfig:
-    """How the depth observer finds people. Distances in stage metres."""
-
-    work_width: int = 160  # depth pixels across the sampled image (the frame's width when smaller)
-    stage_x: tuple[float, ...] = (-3.5, 3.5)  # the stage volume: x range
-    stage_y: tuple[float, ...] = (-2.0, 2.2)  # y range
-    max_height_m: float = 2.4  # top of the volume
-    floor_clearance_m: float = 0.03  # points nearer the floor than this are floor
-    body_clearance_m: float = 0.15  # only points higher than this find people (the rest: their feet)
-    cell_m: float = 0.05  # the top-down grid's cell size
-    min_height_m: float = 0.9  # a person reaches at least this high
-    min_points: int = 60  # … and holds at least this many points (at the work size)
-    max_people: int = 8
-    side_by_side_m: float = 0.4  # a blob whose two halves' middles are this far apart is two people
-    match_distance_m: float = 0.6  # a person moves less than this between frames
-    track_memory_frames: int = 30
-    hidden_memory_s: float = 1.0  # a person unseen this long, near someone seen, is still counted (hidden)
-    hidden_near_m: float = 0.7
-    learn_frames: int = 5  # first frames: what is on the stage then is furniture
-    hand_band_low: float = 0.5  # hands are looked for above this fraction of the person's height
-    min_arm_reach: float = 0.27  # … this far from the shoulders at least (a fraction of the height)
-    min_hand_reach_m: float = 0.2  # a hand is this far out from the torso's axis (nearer: not told from it)
-    alpha: float = 0.6  # the velocity filter's gains
-    beta: float = 0.4
-    limb_gate_m: float = 0.3  # a hand (foot) moves less than this from where its track predicts it
-    limb_steady_m: float = 0.1  # … and its velocity is trusted after it stays this close for:
-    limb_steady_frames: int = 3
-    limb_consistent_deg: float = 20.0  # … and claimed when its last two steps turn less than this
-    limb_min_speed: float = 0.5  # … and are faster than this (m/s)
-    limb_confirm_frames: int = 2  # a hand is reported once found in this many frames in a row
-    foot_confirm_frames: int = 1  # … a foot in this many (its first frame's error is no larger: no confirming)
-    limb_memory_frames: int = 3  # a track not found for longer is forgotten
-    shoe_model: bool = True  # feet corrected by the shipped shoe model (interaction.shoe_model); false: rules only
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.work_width, int) or not 16 <= self.work_width <= 4096:
-            raise ValueError(f"work_width: expected a whole number 16..4096, got {self.work_width!r}")
-        for name in ("stage_x", "stage_y"):
-            r = getattr(self, name)
-            if not (isinstance(r, tuple) and len(r) == 2 and all(isinstance(v, int | float) for v in r) and r[0] < r[1]):
-                raise ValueError(f"{name}: expected [low, high] with low < high, got {r!r}")
-        _check("max_height_m", self.max_height_m, 0.5, 5.0)
-        _check("floor_clearance_m", self.floor_clearance_m, 0.0, 0.5)
-        _check("body_clearance_m", self.body_clearance_m, 0.0, 1.0)
-        _check("cell_m", self.cell_m, 0.01, 0.5)
-        _check("min_height_m", self.min_height_m, 0.1, 3.0)
-        for name, hi in (("min_points", 100000), ("max_people", 64), ("track_memory_frames", 1000), ("learn_frames", 1000),
-                         ("limb_steady_frames", 100), ("limb_confirm_frames", 100), ("foot_confirm_frames", 100),
-                         ("limb_memory_frames", 1000)):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or not 0 <= v <= hi:
-                raise ValueError(f"{name}: expected a whole number 0..{hi}, got {v!r}")
-        _check("side_by_side_m", self.side_by_side_m, 0.2, 3.0)
-        _check("match_distance_m", self.match_distance_m, 0.01, 10.0)
-        _check("hidden_memory_s", self.hidden_memory_s, 0.0, 60.0)
-        _check("hidden_near_m", self.hidden_near_m, 0.0, 10.0)
-        _check("hand_band_low", self.hand_band_low, 0.0, 0.9)
-        _check("min_arm_reach", self.min_arm_reach, 0.0, 1.0)
-        _check("min_hand_reach_m", self.min_hand_reach_m, 0.0, 1.0)
-        _check("alpha", self.alpha, 0.01, 1.0)
-        _check("beta", self.beta, 0.0, 2.0)
-        _check("limb_gate_m", self.limb_gate_m, 0.01, 5.0)
-        _check("limb_steady_m", self.limb_steady_m, 0.0, 5.0)
-        _check("limb_consistent_deg", self.limb_consistent_deg, 0.0, 180.0)
-        _check("limb_min_speed", self.limb_min_speed, 0.0, 10.0)
-        if not isinstance(self.shoe_model, bool):
-            raise ValueError(f"shoe_model: expected true or false, got {self.shoe_model!r}")
 
 
 _KERNEL5 = np.ones((5, 5), np.uint8)

@@ -43,15 +43,15 @@ class WebcamObserverConfig:
 
     Contactors: along each outer outline every ``contour_spacing_px`` pixels, plus head (top),
     hands (extreme left and right, arms held out; none for a person cut from others) and feet
-    (the middle of each leg end's lowest shoe-high band; see :mod:`interaction.silhouette_parts`).
+    (the middle of each leg end's lowest shoe-high band; see :mod:`interaction.webcam.silhouette_parts`).
     Radius ``contactor_radius_m`` metres, or 0 to derive it from the spacing (0.6 × spacing at
     the local image scale). Velocity: the median DIS optical flow (``flow_preset``, its finest
     pyramid level overridden by ``flow_finest_scale``: 0 full work size, 1 half, 2 quarter) over the
     person's pixels in a ``flow_window_px`` square at each contactor, over the frame interval.
 
     Pose (``pose = true``): BlazePose's 33 keypoints per person through ``cv2.dnn`` (see
-    :mod:`interaction.pose`), from the model files in ``pose_model_dir`` ("" = the cache that
-    ``python -m interaction.pose_models`` fills). Hands and feet become contactors of their own
+    :mod:`interaction.webcam.pose`), from the model files in ``pose_model_dir`` ("" = the cache that
+    ``python -m interaction.webcam.pose_models`` fills). Hands and feet become contactors of their own
     ("left_hand", "right_hand", "left_foot", "right_foot"; radius ``pose_radius_m``) with their own
     velocities, when the person's score is at least ``pose_min_score``, the keypoints' visibility at
     least ``pose_min_visibility``, and they lie on the person's silhouette. Without the model files

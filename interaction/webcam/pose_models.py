@@ -14,9 +14,9 @@ on the machine shares it.
 
 Run it (set-up does)::
 
-    python -m interaction.pose_models                 # fetch into the cache (a warning, exit 0, if offline)
-    python -m interaction.pose_models --wheel W.whl   # take the files from a wheel already on disk
-    python -m interaction.pose_models --check         # are the files there and intact?
+    python -m interaction.webcam.pose_models                 # fetch into the cache (a warning, exit 0, if offline)
+    python -m interaction.webcam.pose_models --wheel W.whl   # take the files from a wheel already on disk
+    python -m interaction.webcam.pose_models --check         # are the files there and intact?
 """
 
 from __future__ import annotations
@@ -193,7 +193,7 @@ def _write_atomic(path: Path, data: bytes) -> Path:
 def main(argv: list[str] | None = None) -> int:
     """Set-up's step: fetch (or extract, or check) the model files. Offline is a warning, not a failure."""
     parser = argparse.ArgumentParser(
-        prog="python -m interaction.pose_models",
+        prog="python -m interaction.webcam.pose_models",
         description="Fetch BlazePose's model files out of the mediapipe wheel into jostle's model cache.",
     )
     parser.add_argument("--dir", type=Path, default=None, help=f"where to put them (default: {default_model_dir()})")
@@ -213,7 +213,7 @@ def main(argv: list[str] | None = None) -> int:
     except ModelFetchError as e:
         print(f"pose models: {e}", file=sys.stderr)
         print("pose models: the webcam observer will run silhouette-only (no body keypoints); "
-              "run `python -m interaction.pose_models` again when online", file=sys.stderr)
+              "run `python -m interaction.webcam.pose_models` again when online", file=sys.stderr)
         return 1 if args.strict or args.check else 0
     print(f"pose models: {', '.join(MODEL_FILES)} in {d}")
     return 0
