@@ -1,6 +1,6 @@
 """A sensor that fails on a schedule, so the loop's recovery can be tested for every driver kind.
 
-:class:`FaultySensor` wraps any Sensor (usually a :class:`sensors.replay.Replay` of a colour, depth
+:class:`FaultySensor` wraps any Sensor (usually a :class:`sensors.recording.replay.Replay` of a colour, depth
 or pads channel) and, on the times of a :class:`FaultSchedule` counted from ``open()`` on the
 sensor's clock, behaves as a live driver does when its device drops out:
 
@@ -44,7 +44,7 @@ from sensors.base import (
     SensorStatus,
 )
 from sensors.clock import Clock
-from sensors.replay import ReplayConfig
+from sensors.recording.replay import ReplayConfig
 
 Corruption = Literal["noise", "blank", "nan"]
 Phase = Literal["up", "down", "failed"]

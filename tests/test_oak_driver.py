@@ -23,8 +23,8 @@ from sensors.oak.frames import Intrinsics
 from sensors.oak.host_pipeline import HostPipelineLink
 from sensors.oak.link import Backoff
 from sensors.oak.search import DeviceSearch, FoundDevice
-from sensors.record import Recorder, RecordingWriter
-from sensors.recording_info import iter_frames
+from sensors.recording.info import iter_frames
+from sensors.recording.writer import Recorder, RecordingWriter
 from sensors.testing import check_sensor
 
 W, H = 64, 40

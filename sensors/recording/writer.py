@@ -30,7 +30,7 @@ from typing import Any
 from mcap.writer import CompressionType, Writer
 
 from sensors.base import Frame, Sensor, SensorContext, SensorSpec, SensorStatus
-from sensors.mcap_codec import (
+from sensors.recording.codec import (
     META_KIND,
     META_ROLE,
     META_SENSOR,
@@ -39,7 +39,7 @@ from sensors.mcap_codec import (
     encode_frame,
     schema_definition,
 )
-from sensors.recording_info import METADATA_NAME
+from sensors.recording.info import METADATA_NAME
 
 _RESERVED_METADATA = ("created", "jostle_version")
 _UINT32 = 2**32

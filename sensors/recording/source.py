@@ -29,10 +29,10 @@ from typing import Final
 from mcap.records import Channel, Schema
 
 from sensors.base import Payload
-from sensors.mcap_codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
-from sensors.recording_index import ChunkRef, ChunkUnreadable, RecordingIndex, read_chunk, read_index
-from sensors.recording_info import RecordingInfo, describe_indexed, describe_scan
-from sensors.recording_stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
+from sensors.recording.codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
+from sensors.recording.index import ChunkRef, ChunkUnreadable, RecordingIndex, read_chunk, read_index
+from sensors.recording.info import RecordingInfo, describe_indexed, describe_scan
+from sensors.recording.stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
 
 CHUNK_CACHE_BYTES = 64 * 1024 * 1024
 _SENSOR_ROLES = ("frame", "calibration", "aligned_color")

@@ -6,7 +6,7 @@ call, oldest first. ``read`` never sleeps (``timeout`` is accepted and ignored) 
 when nothing is due, so on a SimClock a replay is deterministic and runs as fast as the loop.
 
 Speed: every replay of one file in the process shares one reader
-(:func:`sensors.replay_source.open_recording`): a complete file is described from its summary, and
+(:func:`sensors.recording.source.open_recording`): a complete file is described from its summary, and
 each chunk is decompressed once for all its sensors. Each open replay decodes its frames in its
 own thread, at most :data:`LOOKAHEAD` frames ahead of ``read``; ``read`` waits for a frame that is
 due but not decoded yet (never returns None for it), so what a replay returns, and when, does not
@@ -19,7 +19,7 @@ A recording whose own times go back, or whose sequence numbers do not increase (
 leave them at 0), is played with t held and seq counted on, so the Sensor contract still holds.
 
 Damage (a cut or corrupt file) is reported once per replay with ``warnings.warn``
-(:class:`sensors.recording_info.RecordingDamaged`); the frames before it are played, then ENDED.
+(:class:`sensors.recording.info.RecordingDamaged`); the frames before it are played, then ENDED.
 With ``loop=True`` the good part repeats; each pass shifts t by the recording's span plus one
 interval of its fastest sensor (the same for every channel of the file, so they stay in step) and
 seq by the number of sequence numbers in a pass, so both keep increasing.
@@ -42,8 +42,8 @@ from sensors.base import (
     SensorStatus,
 )
 from sensors.clock import Clock
-from sensors.recording_info import ChannelInfo, select_channel, warn_damage
-from sensors.replay_source import END, PASS_END, Damaged, SensorFeed, SharedRecording, open_recording
+from sensors.recording.info import ChannelInfo, select_channel, warn_damage
+from sensors.recording.source import END, PASS_END, Damaged, SensorFeed, SharedRecording, open_recording
 
 _DUE_TOLERANCE_S = 1e-9  # times are whole nanoseconds; the clock is a float
 # frames decoded ahead of the reader, per sensor: images ~0.5-1 MB each, pad samples tiny

@@ -1,8 +1,8 @@
 """What a recording holds (``jostle info``), and its frames one by one (what ``Replay`` plays).
 
 A complete file is described from its summary section and message indexes
-(:mod:`sensors.recording_index`); a cut or damaged one, or one written without indexes, by reading
-every record (:class:`sensors.recording_stream.RecordingStream`).
+(:mod:`sensors.recording.index`); a cut or damaged one, or one written without indexes, by reading
+every record (:class:`sensors.recording.stream.RecordingStream`).
 
 Damage is reported with ``warnings.warn`` and the category :class:`RecordingDamaged` (a
 ``UserWarning``): the frames before the damage are kept, the user is told once which file broke,
@@ -25,9 +25,9 @@ from sensors.base import (
     RecordingCorrupt,
     SensorUnavailable,
 )
-from sensors.mcap_codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
-from sensors.recording_index import ChunkRef, ChunkUnreadable, RecordingIndex, read_chunk, read_index
-from sensors.recording_stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
+from sensors.recording.codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
+from sensors.recording.index import ChunkRef, ChunkUnreadable, RecordingIndex, read_chunk, read_index
+from sensors.recording.stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
 
 FRAME_KINDS = ("color", "depth", "pads")
 METADATA_NAME = "jostle"
@@ -240,7 +240,7 @@ def iter_payloads(
     Stops at the first damage (structural or an undecodable message) and calls ``on_damage`` once
     with a one-line description.
     """
-    from sensors.replay_source import Damaged, open_recording, sensor_items
+    from sensors.recording.source import Damaged, open_recording, sensor_items
 
     recording = open_recording(Path(path))
     try:
