@@ -14,7 +14,7 @@ from interaction.types import BodyObservation, Contactor, Impulse
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
 from jostle.synth.truth import read_cameras
 from sensors.base import DepthImage, Frame
-from sensors.recording.info import iter_payloads
+from sensors.recording.source import iter_payloads
 
 
 def _band(person: int, x: float, z: float) -> Contactor:

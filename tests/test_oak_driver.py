@@ -23,7 +23,7 @@ from sensors.oak.frames import Intrinsics
 from sensors.oak.host_pipeline import HostPipelineLink
 from sensors.oak.link import Backoff
 from sensors.oak.search import DeviceSearch, FoundDevice
-from sensors.recording.info import iter_frames
+from sensors.recording.source import iter_frames
 from sensors.recording.writer import Recorder, RecordingWriter
 from sensors.testing import check_sensor
 

@@ -26,8 +26,9 @@ from sensors.base import (
     frame_digest,
 )
 from sensors.clock import SimClock
-from sensors.recording.info import RecordingDamaged, describe_recording, format_info, iter_frames
+from sensors.recording.info import RecordingDamaged, describe_recording, format_info
 from sensors.recording.replay import Replay, ReplayConfig
+from sensors.recording.source import iter_frames
 from sensors.recording.writer import Recorder, RecordingWriter
 from sensors.registry import SENSOR_TYPES
 

@@ -22,9 +22,9 @@ from sensors.base import Frame, SensorState, frame_digest
 from sensors.clock import SimClock
 from sensors.recording.codec import META_KIND, META_ROLE, META_SENSOR, encode_frame, schema_definition
 from sensors.recording.index import read_index
-from sensors.recording.info import RecordingDamaged, describe_recording, format_info, iter_frames
+from sensors.recording.info import RecordingDamaged, describe_recording, format_info
 from sensors.recording.replay import Replay
-from sensors.recording.source import open_recording
+from sensors.recording.source import iter_frames, open_recording
 
 CHANNELS = ("cam", "depth", "pads")
 

@@ -1,4 +1,4 @@
-"""What a recording holds (``jostle info``), and its frames one by one (what ``Replay`` plays).
+"""What a recording holds (``jostle info``), and which channel a replay plays.
 
 A complete file is described from its summary section and message indexes
 (:mod:`sensors.recording.index`); a cut or damaged one, or one written without indexes, by reading
@@ -12,14 +12,13 @@ at which byte and at which time, and tests can catch it with ``pytest.warns``.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from sensors.base import (
     ColorImage,
     DepthImage,
-    Frame,
     PadSample,
     Payload,
     RecordingCorrupt,
@@ -230,35 +229,6 @@ def select_channel(info: RecordingInfo, channel: str | None) -> ChannelInfo:
         raise SensorUnavailable(f"{info.path}: the recording holds {len(sensors)} sensor channels ({listing}); "
                                 "choose one with channel = \"<name>\"")
     return sensors[0]
-
-
-def iter_payloads(
-    path: Path, channel: str, on_damage: Callable[[str], None] | None = warn_damage
-) -> Iterator[tuple[int, int, Payload]]:
-    """(log time ns, sequence, payload) of one sensor channel, in file order.
-
-    Stops at the first damage (structural or an undecodable message) and calls ``on_damage`` once
-    with a one-line description.
-    """
-    from sensors.recording.source import Damaged, open_recording, sensor_items
-
-    recording = open_recording(Path(path))
-    try:
-        for item in sensor_items(recording, channel):
-            if isinstance(item, Damaged):
-                if on_damage is not None:
-                    on_damage(item.text)
-                return
-            yield item
-    finally:
-        recording.release()
-
-
-def iter_frames(path: Path, channel: str | None = None) -> Iterator[Frame]:
-    """The frames of one sensor channel (the only one if ``channel`` is None), times in seconds."""
-    topic = channel or select_channel(describe_recording(Path(path)), None).topic
-    for t_ns, seq, payload in iter_payloads(Path(path), topic):
-        yield Frame(sensor=topic, t=t_ns / 1e9, seq=seq, payload=payload)
 
 
 def format_info(info: RecordingInfo) -> str:
