@@ -15,7 +15,15 @@ import threading
 from collections.abc import Callable
 from typing import Generic, TypeVar
 
-from sensors.base import Frame, SensorContext, SensorError, SensorNotOpen, SensorState
+from sensors.base import (
+    Frame,
+    SensorContext,
+    SensorError,
+    SensorNotOpen,
+    SensorSpec,
+    SensorState,
+    SensorStatus,
+)
 from sensors.clock import Clock
 from sensors.frame_queue import FrameQueue
 
@@ -70,8 +78,9 @@ class ThreadedDriver(SensorContext, Generic[Link]):
 
     driver = "sensor"  # the word that starts this driver's messages ("pads", "oak", "webcam")
 
-    def __init__(self, name: str, clock: Clock, queue_size: int, join_s: float) -> None:
-        self.name = name
+    def __init__(self, spec: SensorSpec, clock: Clock, queue_size: int, join_s: float) -> None:
+        self.name = spec.name
+        self._spec = spec
         self._clock = clock
         self._join_s = join_s
         self._lock = threading.Lock()
@@ -83,6 +92,17 @@ class ThreadedDriver(SensorContext, Generic[Link]):
         self._reason = ""
         self._frames = 0  # frames returned by read()
         self._reconnects = 0
+
+    @property
+    def spec(self) -> SensorSpec:
+        return self._spec
+
+    @property
+    def status(self) -> SensorStatus:
+        """State, reason, frames read, frames dropped from the queue, and ``extra["reconnects"]``."""
+        with self._lock:
+            return SensorStatus(state=self._state, reason=self._reason, frames=self._frames,
+                                dropped=self._queue.dropped, extra={"reconnects": float(self._reconnects)})
 
     # -------------------------------------------------------------- hooks
 

@@ -49,12 +49,11 @@ class OakSensor(ThreadedDriver[OakLink]):
 
     def __init__(self, config: OakConfig, clock: Clock, name: str = "oak", *, search: DeviceSearch | None = None,
                  connect: Connector | None = None) -> None:
-        super().__init__(name, clock, QUEUE_SIZE, _JOIN_S)
+        super().__init__(SensorSpec(name=name, kind="depth", rate_hz=float(config.fps), width=config.width,
+                                    height=config.height), clock, QUEUE_SIZE, _JOIN_S)
         self.config = config
         self._search = search if search is not None else DeviceSearch()
         self._connect = connect if connect is not None else _default_connector
-        self._spec = SensorSpec(name=name, kind="depth", rate_hz=float(config.fps), width=config.width,
-                                height=config.height)
         self._last_frame = time.monotonic()
         self._reset_counts()
 
@@ -66,10 +65,6 @@ class OakSensor(ThreadedDriver[OakLink]):
         self._sources = {"frame": 0, "calibration": 0, "none": 0}
         self._numbering = FrameNumbering()
         self.device_id = ""
-
-    @property
-    def spec(self) -> SensorSpec:
-        return self._spec
 
     @property
     def status(self) -> SensorStatus:

@@ -77,10 +77,10 @@ class PadsSensor(ThreadedDriver[Any]):  # the link is a pyserial port
     driver = "pads"
 
     def __init__(self, config: PadsConfig, clock: Clock, name: str = "pads") -> None:
-        super().__init__(name, clock, QUEUE_SIZE, _JOIN_S)
+        super().__init__(SensorSpec(name=name, kind="pads", rate_hz=float(config.rate_hz), pads=config.pads), clock,
+                         QUEUE_SIZE, _JOIN_S)
         self.config = config
         self._framing = FRAMINGS[config.framing]
-        self._spec = SensorSpec(name=name, kind="pads", rate_hz=float(config.rate_hz), pads=config.pads)
         self._new_parts()
 
     def _new_parts(self) -> None:
@@ -96,10 +96,6 @@ class PadsSensor(ThreadedDriver[Any]):  # the link is a pyserial port
         self._next_seq: int | None = None  # the seq of the next frame; None before the first
         self._last_sample_wall: float | None = None
         self._opened_wall = time.monotonic()
-
-    @property
-    def spec(self) -> SensorSpec:
-        return self._spec
 
     @property
     def status(self) -> SensorStatus:

@@ -22,7 +22,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from sensors.base import ColorImage, Frame, SensorSpec, SensorState, SensorStatus, SensorUnavailable
+from sensors.base import ColorImage, Frame, SensorSpec, SensorState, SensorUnavailable
 from sensors.clock import Clock
 from sensors.threaded import Backoff, LinkLost, ThreadedDriver
 from sensors.webcam.config import WebcamConfig
@@ -44,10 +44,9 @@ class WebcamSensor(ThreadedDriver[Any]):  # the link is a cv2.VideoCapture (live
     driver = "webcam"
 
     def __init__(self, config: WebcamConfig, clock: Clock, name: str = "webcam") -> None:
-        super().__init__(name, clock, QUEUE_SIZE, _JOIN_S)
+        super().__init__(SensorSpec(name=name, kind="color", rate_hz=float(config.fps), width=config.width,
+                                    height=config.height), clock, QUEUE_SIZE, _JOIN_S)
         self.config = config
-        self._spec = SensorSpec(name=name, kind="color", rate_hz=float(config.fps), width=config.width,
-                                height=config.height)
         # file mode
         self._cap: Any = None
         self._next_image: np.ndarray | None = None
@@ -56,16 +55,6 @@ class WebcamSensor(ThreadedDriver[Any]):  # the link is a cv2.VideoCapture (live
         self._t_open = 0.0
         # live mode
         self._seq = 0  # frames captured since open: drops show as gaps
-
-    @property
-    def spec(self) -> SensorSpec:
-        return self._spec
-
-    @property
-    def status(self) -> SensorStatus:
-        with self._lock:
-            return SensorStatus(state=self._state, reason=self._reason, frames=self._frames,
-                                dropped=self._queue.dropped, extra={"reconnects": float(self._reconnects)})
 
     # -------------------------------------------------------------- opening
 
