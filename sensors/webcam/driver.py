@@ -7,7 +7,8 @@ Two ways of running, chosen by the source:
   capture; ``read(timeout)`` waits at most ``timeout``. When the camera or stream vanishes the
   status turns RECONNECTING with the reason, the thread retries every ``reconnect_s``, and the
   status returns to CONNECTED once frames flow again. ``seq`` counts captured frames, so drops
-  show as gaps.
+  show as gaps. The thread is :class:`sensors.threaded.ThreadedDriver`'s; if it crashes (a bug),
+  the status turns FAILED and ``read`` raises.
 - **File**: frames follow the file's own timeline, ``t = t_open + index / file fps``, and each is
   returned only once it is due on the clock (like a replay): no thread, no waiting, deterministic
   on a SimClock; ENDED after the last frame.
