@@ -78,8 +78,8 @@ def expected_duration(config: JostleConfig, options: RunOptions) -> float | None
         return options.duration_s
     if config.run.duration_s:
         return config.run.duration_s
-    from sensors.recording_info import describe_recording
-    from sensors.replay import ReplayConfig
+    from sensors.recording.info import describe_recording
+    from sensors.recording.replay import ReplayConfig
 
     longest = 0.0
     for entry in config.sensors:
@@ -332,6 +332,6 @@ def _observer_builder(ob: ObserverEntry) -> Callable[[], Observer]:
 
 
 def _is_replay(config: object) -> bool:
-    from sensors.replay import ReplayConfig
+    from sensors.recording.replay import ReplayConfig
 
     return isinstance(config, ReplayConfig)

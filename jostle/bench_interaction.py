@@ -210,7 +210,7 @@ def _score_recording(path: Path, scores: _Scores, *, pose: bool, shoe_model: boo
     from interaction.webcam.calibration import Calibration
     from jostle.synth.truth import read_cameras, read_truth
     from sensors.base import DepthImage, Frame
-    from sensors.recording_info import iter_payloads
+    from sensors.recording.source import iter_payloads
 
     cameras = read_cameras(path)
     truth = {round(f.t * 1000): f for f in read_truth(path)}

@@ -194,7 +194,8 @@ def _frames(args: argparse.Namespace) -> Iterator[np.ndarray]:
     from sensors.base import ColorImage, DepthImage
 
     if args.recording is not None:
-        from sensors.recording_info import describe_recording, iter_payloads, select_channel
+        from sensors.recording.info import describe_recording, select_channel
+        from sensors.recording.source import iter_payloads
 
         info = describe_recording(args.recording)
         channel = select_channel(info, args.channel or None)
@@ -283,7 +284,8 @@ def cmd_calibrate_depth(args: argparse.Namespace) -> int:
 
     from interaction.depth.calibration import DepthCalibrationError, calibrate_depth, fit_floor
     from sensors.base import DepthImage
-    from sensors.recording_info import describe_recording, iter_payloads, select_channel
+    from sensors.recording.info import describe_recording, select_channel
+    from sensors.recording.source import iter_payloads
 
     out = _out_path(args, DEFAULT_DEPTH_NAME)
     if args.frames < 1:

@@ -169,7 +169,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     import dataclasses
     import json
 
-    from sensors.recording_info import describe_recording, format_info
+    from sensors.recording.info import describe_recording, format_info
 
     info = describe_recording(args.recording)
     if args.json:

@@ -9,13 +9,13 @@ from pathlib import Path
 from jostle.config import load_config
 from sensors.base import Sensor, SensorState
 from sensors.clock import Clock, SimClock, WallClock
-from sensors.record import Recorder, RecordingWriter
+from sensors.recording.writer import Recorder, RecordingWriter
 from sensors.registry import SENSOR_TYPES
 
 
 def record_config(config_path: Path, out: Path, *, duration: float | None, force: bool = False) -> int:
     from jostle.cli import UsageError
-    from sensors.replay import ReplayConfig
+    from sensors.recording.replay import ReplayConfig
 
     config = load_config(config_path)
     if out.exists() and not force:

@@ -15,8 +15,8 @@ def replace_sensors_with_recording(config: JostleConfig, recording: Path) -> Jos
     With one sensor and one channel the names need not match. A sensor the recording does not
     hold is an error naming both sides (a replay never silently falls back to hardware).
     """
-    from sensors.recording_info import describe_recording
-    from sensors.replay import ReplayConfig
+    from sensors.recording.info import describe_recording
+    from sensors.recording.replay import ReplayConfig
 
     info = describe_recording(recording)
     topics = [c.topic for c in info.channels if c.kind in ("color", "depth", "pads")]

@@ -1,7 +1,7 @@
 """Session recording: the live sensor frames into rotating MCAP files that stay under a quota.
 
 ``[record] dir = "sessions", quota_mb = 2000, file_minutes = 10`` records every frame the sensors
-deliver while the show runs (:class:`sensors.record.RecordingWriter`, one channel per sensor, so a
+deliver while the show runs (:class:`sensors.recording.writer.RecordingWriter`, one channel per sensor, so a
 file replays with ``jostle replay``) into ``dir/session-000001.mcap``, ``session-000002.mcap``, …
 (numbering goes on after the files already there; larger numbers are newer).
 
@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Literal
 
 from sensors.base import Frame
-from sensors.record import RecordingWriter
+from sensors.recording.writer import RecordingWriter
 
 log = logging.getLogger("jostle.record")
 

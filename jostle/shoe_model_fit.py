@@ -69,7 +69,7 @@ def recording_rows(path: Path) -> tuple[list[np.ndarray], list[np.ndarray]]:
     from jostle.bench_truth import part_centres
     from jostle.synth.truth import read_cameras, read_truth
     from sensors.base import DepthImage, Frame
-    from sensors.recording_info import iter_payloads
+    from sensors.recording.source import iter_payloads
 
     cameras = read_cameras(path)
     truth = {round(f.t * 1000): f for f in read_truth(path)}

@@ -179,7 +179,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def looped(config: Any) -> Any:
     """``config`` with every replay sensor (faulty or not) set to loop forever."""
-    from sensors.replay import ReplayConfig
+    from sensors.recording.replay import ReplayConfig
 
     entries = tuple(dataclasses.replace(e, config=dataclasses.replace(e.config, loop=True))
                     if isinstance(e.config, ReplayConfig) else e for e in config.sensors)

@@ -7,8 +7,8 @@ Figures (``--json``):
   to the parser in random chunks, and the decode rate of a clean stream. Targets: 0, 0, ≥ 50,000/s.
 - ``replay_speed``: a recording of depth (640×400 uint16, a room with a moving person and sensor
   noise, with intrinsics), colour (640×480, JPEG) at ``--fps`` and 8 force pads at 100 Hz, written
-  with :class:`sensors.record.RecordingWriter` (the app's defaults), then replayed as the app does —
-  one :class:`sensors.replay.Replay` per channel on a SimClock stepped at the frame rate, every due
+  with :class:`sensors.recording.writer.RecordingWriter` (the app's defaults), then replayed as the app does —
+  one :class:`sensors.recording.replay.Replay` per channel on a SimClock stepped at the frame rate, every due
   frame read (a Frame with its payload decoded: pixels, millimetres, newtons) — as fast as
   possible: recorded seconds / wall seconds, opening included. Target ≥ 50×.
 - ``replay_speed_one_pass``: the same frames decoded in one thread (the three sensors' payloads
@@ -87,7 +87,7 @@ class _Scene:
 def write_recording(path: Path, seconds: float, fps: float, seed: int) -> dict[str, int]:
     """The bench recording (channels "depth", "color", "pads"); returns frames per channel."""
     from sensors.base import ColorImage, DepthImage, Frame, PadSample
-    from sensors.record import RecordingWriter
+    from sensors.recording.writer import RecordingWriter
 
     scene = _Scene(seed)
     n_images, n_pads = round(seconds * fps), round(seconds * PADS_HZ)
@@ -110,7 +110,7 @@ def replay_all(path: Path, fps: float) -> tuple[int, float, float]:
     """Replay every channel as the app does; (frames, open seconds, total wall seconds)."""
     from sensors.base import SensorState
     from sensors.clock import SimClock
-    from sensors.replay import Replay
+    from sensors.recording.replay import Replay
 
     clock = SimClock()
     replays = [Replay(path, clock, channel=c) for c in ("depth", "color", "pads")]
@@ -139,7 +139,7 @@ def decode_one_pass(path: Path) -> tuple[int, float]:
     shared reader (so each chunk is decompressed once); (payloads, seconds)."""
     import heapq
 
-    from sensors.replay_source import Damaged, open_recording, sensor_items
+    from sensors.recording.source import Damaged, open_recording, sensor_items
 
     start = time.perf_counter()
     recording = open_recording(path)
@@ -159,7 +159,7 @@ def decode_one_pass(path: Path) -> tuple[int, float]:
 
 def zstd_decompress_s(path: Path) -> float:
     """Every chunk of the file read and decompressed once (CRC checked), in one thread."""
-    from sensors.recording_index import read_chunk, read_index
+    from sensors.recording.index import read_chunk, read_index
 
     with path.open("rb") as f:
         index = read_index(f.fileno(), path.stat().st_size)

@@ -1,8 +1,8 @@
 """A sensor that fails on a schedule, so the loop's recovery can be tested for every driver kind.
 
-:class:`FaultySensor` wraps any Sensor (usually a :class:`sensors.replay.Replay` of a colour, depth
-or pads channel) and, on the times of a :class:`FaultSchedule` counted from ``open()`` on the
-sensor's clock, behaves as a live driver does when its device drops out:
+:class:`FaultySensor` wraps any Sensor (usually a :class:`sensors.recording.replay.Replay` of a
+colour, depth or pads channel) and, on the times of a :class:`FaultSchedule` counted from
+``open()`` on the sensor's clock, behaves as a live driver does when its device drops out:
 
 - during an outage (``disconnect_at_s`` to ``disconnect_at_s + down_for_s``, repeated every
   ``repeat_every_s`` if set) the status is RECONNECTING with the reason, and the frames the
@@ -10,11 +10,9 @@ sensor's clock, behaves as a live driver does when its device drops out:
   returns None; afterwards the status is CONNECTED again and frames flow, ``seq`` showing the gap;
 - with ``fail = true`` the first outage never ends: RECONNECTING for ``down_for_s``, then FAILED,
   and ``read`` raises :class:`SimulatedFailure` (as a driver does once it gives up);
-- ``corrupt_every = N`` replaces the payload of every Nth delivered frame with garbage of the same
-  shape ("noise": random values; "blank": zeros — no depth, a black image, no force; "nan": pad
-  forces NaN and ±inf, the way a broken calibration or driver bug delivers them — images hold whole
-  numbers, so for them "nan" is "noise"), the way a glitching device delivers well-formed nonsense. The garbage is a function of ``seed`` and the
-  frame's ``seq``, so runs repeat exactly.
+- ``corrupt_every = N`` replaces the payload of every Nth delivered frame with well-formed garbage
+  of the same shape ("noise": random values; "blank": zeros; "nan": pad forces NaN and ±inf,
+  "noise" for images), a function of ``seed`` and the frame's ``seq``, so runs repeat exactly.
 
 Everything is decided by times (the clock's and the frames'), so on a SimClock a faulty replay is
 as deterministic as the replay it wraps. ``[sensors.<name>] type = "faulty-replay"`` builds one
@@ -44,8 +42,10 @@ from sensors.base import (
     SensorStatus,
 )
 from sensors.clock import Clock
-from sensors.replay import ReplayConfig
+from sensors.recording.replay import ReplayConfig
 
+# noise: random values; blank: zeros (no depth, a black image, no force); nan: pad forces NaN and ±inf,
+# the way a broken calibration or driver bug delivers them (images hold whole numbers: "noise" for them)
 Corruption = Literal["noise", "blank", "nan"]
 Phase = Literal["up", "down", "failed"]
 

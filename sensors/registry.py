@@ -15,7 +15,7 @@ from sensors.clock import Clock
 from sensors.faults import FaultyReplayConfig
 from sensors.oak.config import OakConfig
 from sensors.pads.config import PadsConfig
-from sensors.replay import ReplayConfig
+from sensors.recording.replay import ReplayConfig
 from sensors.webcam.config import WebcamConfig
 
 
@@ -45,7 +45,7 @@ def _load_pads(config: PadsConfig, name: str, clock: Clock) -> Sensor:
 
 
 def _load_replay(config: ReplayConfig, name: str, clock: Clock) -> Sensor:
-    from sensors.replay import Replay
+    from sensors.recording.replay import Replay
 
     return Replay(config.path, clock, channel=config.channel or None, name=name, loop=config.loop)
 
@@ -58,7 +58,7 @@ def _load_oak(config: OakConfig, name: str, clock: Clock) -> Sensor:
 
 def _load_faulty_replay(config: FaultyReplayConfig, name: str, clock: Clock) -> Sensor:
     from sensors.faults import FaultySensor
-    from sensors.replay import Replay
+    from sensors.recording.replay import Replay
 
     replay = Replay(config.path, clock, channel=config.channel or None, name=name, loop=config.loop)
     return FaultySensor(replay, config.schedule, clock)

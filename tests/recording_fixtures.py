@@ -8,8 +8,8 @@ import cv2
 import numpy as np
 
 from sensors.base import ColorImage, DepthImage, Frame, PadSample
-from sensors.mcap_codec import ColorFormat
-from sensors.record import RecordingWriter
+from sensors.recording.codec import ColorFormat
+from sensors.recording.writer import RecordingWriter
 
 W, H = 160, 120
 INTRINSICS = (141.25, 140.5, 79.5, 59.75)  # fx, fy, cx, cy

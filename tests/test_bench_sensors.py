@@ -9,7 +9,8 @@ import numpy as np
 
 from jostle.bench_cli import main_json
 from sensors.bench import DEPTH_SIZE, INTRINSICS, PADS, write_recording
-from sensors.recording_info import describe_recording, iter_frames
+from sensors.recording.info import describe_recording
+from sensors.recording.source import iter_frames
 
 KEYS = {"fuzz_bytes", "crashes", "bad_frames_accepted", "pad_frames_per_s", "replay_speed"}
 

@@ -13,7 +13,7 @@ from interaction.depth.calibration import DepthCalibration, DepthCalibrationErro
 from jostle import calibrate_cli
 from jostle.synth.truth import read_cameras
 from sensors.base import DepthImage
-from sensors.recording_info import iter_payloads
+from sensors.recording.source import iter_payloads
 
 FIXTURE = Path(__file__).parent / "fixtures" / "crossing2.mcap"
 

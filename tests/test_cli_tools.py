@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 from jostle.cli import main
-from sensors.recording_info import describe_recording, iter_frames
+from sensors.recording.info import describe_recording
+from sensors.recording.source import iter_frames
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMO = ROOT / "configs" / "demo.toml"

@@ -21,7 +21,7 @@ from jostle.bench_interaction import _depth_calibration
 from jostle.bench_truth import body_part_centres
 from jostle.synth.truth import TruthFrame, read_cameras, read_truth
 from sensors.base import DepthImage, Frame
-from sensors.recording_info import iter_payloads
+from sensors.recording.source import iter_payloads
 
 
 @pytest.fixture(scope="module")

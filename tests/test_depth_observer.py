@@ -15,7 +15,7 @@ from interaction.types import BodyObservation
 from jostle.bench_truth import visible_people
 from jostle.synth.truth import TruthFrame, read_cameras, read_truth
 from sensors.base import ColorImage, DepthImage, Frame
-from sensors.recording_info import iter_payloads
+from sensors.recording.source import iter_payloads
 
 FIXTURES = Path(__file__).parent / "fixtures"
 

@@ -18,7 +18,7 @@ from jostle.synth.config import DepthCameraConfig, PerformerConfig
 from jostle.synth.session import SynthSensors, record_performance
 from jostle.synth.truth import read_cameras, read_truth
 from sensors.base import DepthImage, Frame
-from sensors.recording_info import iter_payloads
+from sensors.recording.source import iter_payloads
 
 DT = 1.0 / 15.0
 

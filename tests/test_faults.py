@@ -11,8 +11,8 @@ from recording_fixtures import sample_frames, write_recording
 from sensors.base import DepthImage, Frame, PadSample, SensorState, frame_digest
 from sensors.clock import SimClock
 from sensors.faults import Corruption, FaultSchedule, FaultyReplayConfig, FaultySensor, SimulatedFailure
+from sensors.recording.replay import Replay
 from sensors.registry import SENSOR_TYPES
-from sensors.replay import Replay
 from sensors.testing import check_sensor
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -12,7 +12,7 @@ from jostle.config import JostleConfig, SensorEntry, load_config
 from jostle.summary import RunSummary
 from sensors.clock import SimClock
 from sensors.faults import FaultyReplayConfig, SimulatedFailure
-from sensors.replay import Replay, ReplayConfig
+from sensors.recording.replay import Replay, ReplayConfig
 
 ROOT = Path(__file__).resolve().parent.parent
 SECONDS = 2.5

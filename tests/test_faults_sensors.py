@@ -23,7 +23,7 @@ from sensors.base import Frame, PadSample, SensorState
 from sensors.faults import FaultyReplayConfig
 from sensors.pads.config import PadsConfig
 from sensors.pads.protocol import encode_binary
-from sensors.replay import ReplayConfig
+from sensors.recording.replay import ReplayConfig
 from sim.snapshot import WorldSnapshot
 from sim.world import PAD_PERSON
 

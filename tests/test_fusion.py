@@ -14,7 +14,7 @@ from interaction.webcam import WebcamObserver, WebcamObserverConfig
 from interaction.webcam.calibration import Calibration
 from jostle.synth.truth import read_cameras
 from sensors.base import DepthImage, Frame
-from sensors.recording_info import iter_payloads
+from sensors.recording.source import iter_payloads
 
 
 def _band(person: int, x: float, z: float) -> Contactor:

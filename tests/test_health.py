@@ -23,8 +23,8 @@ from jostle.health import ErrorRing, Health
 from jostle.health_report import HealthFile, HealthServer
 from sensors.clock import SimClock
 from sensors.faults import FaultSchedule, FaultySensor
-from sensors.recording_info import describe_recording
-from sensors.replay import Replay
+from sensors.recording.info import describe_recording
+from sensors.recording.replay import Replay
 from sim.config import CharacterSpec, WorldConfig
 from sim.world import World
 

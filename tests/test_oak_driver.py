@@ -21,11 +21,11 @@ from sensors.oak.config import OakConfig
 from sensors.oak.driver import OakFailed, OakSensor
 from sensors.oak.frames import Intrinsics
 from sensors.oak.host_pipeline import HostPipelineLink
-from sensors.oak.link import Backoff
 from sensors.oak.search import DeviceSearch, FoundDevice
-from sensors.record import Recorder, RecordingWriter
-from sensors.recording_info import iter_frames
+from sensors.recording.source import iter_frames
+from sensors.recording.writer import Recorder, RecordingWriter
 from sensors.testing import check_sensor
+from sensors.threaded import Backoff
 
 W, H = 64, 40
 K = Intrinsics(fx=55.5, fy=55.25, cx=31.75, cy=19.5, width=W, height=H)

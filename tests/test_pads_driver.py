@@ -23,8 +23,8 @@ from sensors.clock import SimClock, WallClock
 from sensors.pads.config import PadsConfig
 from sensors.pads.driver import QUEUE_SIZE, PadsFailed, PadsSensor, port_open_hint
 from sensors.pads.protocol import StreamParser, encode_binary, encode_csv
-from sensors.record import Recorder, RecordingWriter
-from sensors.replay import Replay
+from sensors.recording.replay import Replay
+from sensors.recording.writer import Recorder, RecordingWriter
 from sensors.testing import check_sensor
 
 DEADLINE_S = 5.0

@@ -23,9 +23,10 @@ from jostle.synth.truth import (
 )
 from sensors.base import ColorImage, DepthImage, Frame, PadSample, RecordingCorrupt, frame_digest
 from sensors.clock import SimClock
-from sensors.record import RecordingWriter
-from sensors.recording_info import describe_recording, iter_frames
-from sensors.replay import Replay
+from sensors.recording.info import describe_recording
+from sensors.recording.replay import Replay
+from sensors.recording.source import iter_frames
+from sensors.recording.writer import RecordingWriter
 from sensors.testing import check_sensor
 from sim.motion.mocap import HUMANOID
 

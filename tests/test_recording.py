@@ -26,10 +26,11 @@ from sensors.base import (
     frame_digest,
 )
 from sensors.clock import SimClock
-from sensors.record import Recorder, RecordingWriter
-from sensors.recording_info import RecordingDamaged, describe_recording, format_info, iter_frames
+from sensors.recording.info import RecordingDamaged, describe_recording, format_info
+from sensors.recording.replay import Replay, ReplayConfig
+from sensors.recording.source import iter_frames
+from sensors.recording.writer import Recorder, RecordingWriter
 from sensors.registry import SENSOR_TYPES
-from sensors.replay import Replay, ReplayConfig
 
 JPEG_MEAN_ABS_MAX = 3.0  # levels; measured ≈1.1 first generation, ≈0.6 the next, at quality 85
 

@@ -20,11 +20,11 @@ from recording_fixtures import sample_frames, write_recording
 
 from sensors.base import Frame, SensorState, frame_digest
 from sensors.clock import SimClock
-from sensors.mcap_codec import META_KIND, META_ROLE, META_SENSOR, encode_frame, schema_definition
-from sensors.recording_index import read_index
-from sensors.recording_info import RecordingDamaged, describe_recording, format_info, iter_frames
-from sensors.replay import Replay
-from sensors.replay_source import open_recording
+from sensors.recording.codec import META_KIND, META_ROLE, META_SENSOR, encode_frame, schema_definition
+from sensors.recording.index import read_index
+from sensors.recording.info import RecordingDamaged, describe_recording, format_info
+from sensors.recording.replay import Replay
+from sensors.recording.source import iter_frames, open_recording
 
 CHANNELS = ("cam", "depth", "pads")
 

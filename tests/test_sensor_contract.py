@@ -21,8 +21,8 @@ from sensors.base import (
     SensorStatus,
 )
 from sensors.clock import SimClock
-from sensors.record import Recorder, RecordingWriter
-from sensors.replay import Replay
+from sensors.recording.replay import Replay
+from sensors.recording.writer import Recorder, RecordingWriter
 from sensors.testing import check_sensor
 from sensors.webcam.config import WebcamConfig
 from sensors.webcam.driver import WebcamSensor

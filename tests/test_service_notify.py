@@ -17,7 +17,7 @@ from jostle.app import App, RunOptions
 from jostle.config import SensorEntry, load_config
 from jostle.sdnotify import Heartbeat, Notifier, socket_address, watchdog_interval
 from sensors.faults import FaultyReplayConfig
-from sensors.replay import ReplayConfig
+from sensors.recording.replay import ReplayConfig
 
 ROOT = Path(__file__).resolve().parent.parent
 

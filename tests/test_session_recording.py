@@ -18,8 +18,8 @@ from jostle.app import App, RunOptions
 from jostle.config import ConfigError, JostleConfig, load_config
 from jostle.session_recording import SessionRecordConfig, session_files
 from sensors.clock import SimClock
-from sensors.recording_info import describe_recording
-from sensors.replay import Replay
+from sensors.recording.info import describe_recording
+from sensors.recording.replay import Replay
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -21,7 +21,7 @@ from jostle.bench_truth import part_centres
 from jostle.shoe_model_fit import BENCH_SEEDS, MATCH_M, parse_seeds, recording_rows
 from jostle.synth.truth import read_cameras, read_truth
 from sensors.base import DepthImage, Frame
-from sensors.recording_info import iter_payloads
+from sensors.recording.source import iter_payloads
 
 CAMERA = np.array([0.0, -4.0, 2.4])
 

@@ -16,7 +16,7 @@ from jostle.bench_cli import main_json
 from jostle.config import load_config
 from jostle.soak import FreeRunningClock, looped, rss_mb
 from sensors.base import Frame
-from sensors.replay import ReplayConfig
+from sensors.recording.replay import ReplayConfig
 
 ROOT = Path(__file__).resolve().parent.parent
 KEYS = ("minutes", "frames", "rss_start_mb", "rss_end_mb", "rss_growth_pct", "fps_first_minute", "fps_last_minute",

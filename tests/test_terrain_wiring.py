@@ -17,7 +17,7 @@ from jostle.app import App, RunOptions
 from jostle.config import ConfigError, load_config
 from jostle.terrain_layout import LayoutError, TerrainSection, parse_rows, read_layout
 from jostle.terrain_wiring import TerrainWiring, grid_config
-from sensors.record import RecordingWriter
+from sensors.recording.writer import RecordingWriter
 from sim.quadruped.grid import TerrainGrid
 from sim.snapshot import WorldSnapshot
 

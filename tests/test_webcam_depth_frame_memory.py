@@ -25,7 +25,7 @@ from interaction.webcam import WebcamObserver, WebcamObserverConfig
 from interaction.webcam.calibration import Calibration
 from jostle.synth.truth import read_cameras
 from sensors.base import ColorImage, DepthImage, Frame
-from sensors.recording_info import iter_payloads
+from sensors.recording.source import iter_payloads
 
 FIXTURES = Path(__file__).parent / "fixtures"
 WARM_UP = 25  # frames before measuring: learning (10 webcam, 5 depth frames) and the first people

@@ -186,7 +186,7 @@ def test_virtual_performer_hands_and_feet_on_the_stage_plane(crossing: Path) -> 
     from jostle.bench_truth import body_part_centres
     from jostle.synth.camera import apply_homography
     from jostle.synth.truth import read_cameras, read_truth
-    from sensors.recording_info import iter_payloads
+    from sensors.recording.source import iter_payloads
 
     camera = read_cameras(crossing)["webcam"]
     homography = camera.plane_homography(0.0)

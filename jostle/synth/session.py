@@ -31,8 +31,8 @@ from jostle.synth.truth import (
 )
 from sensors.base import SensorState
 from sensors.clock import SimClock
-from sensors.mcap_codec import ColorFormat
-from sensors.record import Recorder, RecordingWriter
+from sensors.recording.codec import ColorFormat
+from sensors.recording.writer import Recorder, RecordingWriter
 
 
 @dataclass(frozen=True)

@@ -27,8 +27,8 @@ from jostle.synth.camera import PinholeCamera
 from jostle.synth.pads import PadBoardConfig, PadLayout, PadPlacement
 from jostle.synth.scene import PersonState
 from sensors.base import RecordingCorrupt
-from sensors.recording_info import describe_recording
-from sensors.recording_stream import RecordingStream
+from sensors.recording.info import describe_recording
+from sensors.recording.stream import RecordingStream
 from sim.motion.mocap import HUMANOID
 
 TRUTH_TOPIC = "truth"

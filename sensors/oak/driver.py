@@ -19,25 +19,15 @@
 
 from __future__ import annotations
 
-import threading
 import time
 
-from sensors.base import (
-    Frame,
-    SensorContext,
-    SensorError,
-    SensorNotOpen,
-    SensorSpec,
-    SensorState,
-    SensorStatus,
-    SensorUnavailable,
-)
+from sensors.base import SensorError, SensorSpec, SensorState, SensorStatus, SensorUnavailable
 from sensors.clock import Clock
-from sensors.frame_queue import FrameQueue
 from sensors.oak.config import OakConfig
 from sensors.oak.frames import BadMessage, FrameNumbering, make_frame
-from sensors.oak.link import Backoff, Connector, LinkHealth, OakLink
+from sensors.oak.link import Connector, LinkHealth, OakLink
 from sensors.oak.search import DeviceSearch, FoundDevice, link_hint, pick_device
+from sensors.threaded import Backoff, LinkLost, StartTimeout, ThreadedDriver
 
 QUEUE_SIZE = 4  # frames waiting for read(): at 30 fps, 130 ms
 READ_SLICE_S = 0.05  # the thread's longest wait in one queue read (bounds close())
@@ -48,37 +38,23 @@ class OakFailed(SensorError):
     """The camera is gone for good (``give_up_after`` attempts failed): the message says why."""
 
 
-class _Start:
-    """The handshake between ``open()`` and the thread's first connect (one per open)."""
-
-    def __init__(self) -> None:
-        self.done = threading.Event()
-        self.error: BaseException | None = None
-
-
 def _default_connector(found: FoundDevice, config: OakConfig) -> OakLink:
     from sensors.oak.device import connect_device
 
     return connect_device(found, config)
 
 
-class OakSensor(SensorContext):
+class OakSensor(ThreadedDriver[OakLink]):
+    driver = "oak"
+
     def __init__(self, config: OakConfig, clock: Clock, name: str = "oak", *, search: DeviceSearch | None = None,
                  connect: Connector | None = None) -> None:
+        super().__init__(SensorSpec(name=name, kind="depth", rate_hz=float(config.fps), width=config.width,
+                                    height=config.height), clock, QUEUE_SIZE, _JOIN_S)
         self.config = config
-        self.name = name
-        self._clock = clock
         self._search = search if search is not None else DeviceSearch()
         self._connect = connect if connect is not None else _default_connector
-        self._spec = SensorSpec(name=name, kind="depth", rate_hz=float(config.fps), width=config.width,
-                                height=config.height)
-        self._lock = threading.Lock()
-        self._queue = FrameQueue(QUEUE_SIZE)
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self._open = False
-        self._state = SensorState.CLOSED
-        self._reason = ""
+        self._last_frame = time.monotonic()
         self._reset_counts()
 
     def _reset_counts(self) -> None:
@@ -89,10 +65,6 @@ class OakSensor(SensorContext):
         self._sources = {"frame": 0, "calibration": 0, "none": 0}
         self._numbering = FrameNumbering()
         self.device_id = ""
-
-    @property
-    def spec(self) -> SensorSpec:
-        return self._spec
 
     @property
     def status(self) -> SensorStatus:
@@ -115,11 +87,6 @@ class OakSensor(SensorContext):
     def _label(self) -> str:
         return f"oak {self.name!r} (OAK {self.device_id or self.config.device or '?'})"
 
-    def _set_state(self, state: SensorState, reason: str) -> None:
-        with self._lock:
-            self._state, self._reason = state, reason
-        self._queue.wake()  # a reader waiting for a frame also stops waiting on FAILED
-
     # -------------------------------------------------------------- opening
 
     def _find(self) -> FoundDevice:
@@ -139,110 +106,66 @@ class OakSensor(SensorContext):
             self._numbering = FrameNumbering(start_t=self._clock.now())
             self.device_id = found.device_id or found.name
             self._state, self._reason = SensorState.RECONNECTING, f"connecting to {found.describe()}"
-        self._stop = threading.Event()  # a fresh one: a thread of an earlier open may still be winding down
-        start = _Start()
-        self._thread = threading.Thread(target=self._run, args=(found, start, self._stop), name=f"oak-{self.name}",
-                                        daemon=True)
-        self._thread.start()
-        if not start.done.wait(self.config.connect_timeout_s):
-            self._halt(join=False)  # the thread is stuck in depthai's connect: it closes what it gets, then ends
+
+        def connect_first() -> OakLink:  # in the thread, which owns the connection: depthai objects never leave it
+            link = self._connect(found, self.config)
+            self._last_frame = time.monotonic()
+            return link
+
+        try:
+            self._start_reader(connect_first, self.config.connect_timeout_s)
+        except StartTimeout:  # stuck in depthai's connect: the thread closes what it gets, then ends
             raise SensorUnavailable(f"{self._label()}: did not start within {self.config.connect_timeout_s:g} s "
-                                    f"(connect_timeout_s); {link_hint('TIMEOUT')}")
-        if start.error is not None:
-            error = start.error
-            self._halt()
+                                    f"(connect_timeout_s); {link_hint('TIMEOUT')}") from None
+        except Exception as error:
             raise SensorUnavailable(f"{self._label()}: cannot start: {error}; {link_hint(str(error))}") from error
-        self._open = True
 
     # -------------------------------------------------------------- the thread that owns the camera
 
-    def _run(self, found: FoundDevice, start: _Start, stop: threading.Event) -> None:
-        link: OakLink | None = None
-        try:
-            try:
-                link = self._connect(found, self.config)
-            except Exception as e:  # reported by open() as SensorUnavailable
-                start.error = e
-                return
-            finally:
-                start.done.set()
-            if stop.is_set():
-                return
-            self._set_state(SensorState.CONNECTED, "")
-            link = self._serve(link, stop)
-        except Exception as e:  # a bug, not a camera fault: say so in the status, and let it be printed
-            self._set_state(SensorState.FAILED, f"{self._label()}: the camera thread stopped: {e!r}")
-            raise
-        finally:
-            if link is not None:
-                link.close()
-
-    def _serve(self, link: OakLink | None, stop: threading.Event) -> OakLink | None:
-        """Read frames, reconnect when the link is lost; returns the link still open at the end."""
+    def _backoff(self) -> Backoff:
         c = self.config
-        backoff = Backoff(c.reconnect_s, c.reconnect_max_s, c.give_up_after)
-        last_frame = time.monotonic()
-        lost = ""
-        while not stop.is_set():
-            if link is None:
-                delay = backoff.next_delay()
-                if delay is None:
-                    self._set_state(SensorState.FAILED, f"{lost}; gave up after {c.give_up_after} attempts "
-                                                        "(give_up_after)")
-                    return None
-                self._set_state(SensorState.RECONNECTING, f"{lost}; retry {backoff.attempts} in {delay:g} s")
-                if stop.wait(delay):
-                    return None
-                link, why = self._reconnect()
-                if stop.is_set():  # closed while reconnecting: leave the state to close()
-                    return link
-                if link is None:
-                    lost = why
-                    continue
-                backoff.reset()
-                self._numbering.restart_device_numbering()
-                with self._lock:
-                    self._reconnects += 1
-                self._set_state(SensorState.CONNECTED, "")
-                last_frame = time.monotonic()
-                continue
-            try:
-                got = link.read(READ_SLICE_S)
-            except Exception as e:  # X_LINK_ERROR, QueueException: a lost link, never a crash of the loop
-                lost = f"{self._label()}: lost the camera ({e}); {link_hint(str(e))}"
-                link = self._drop(link)
-                continue
-            health, detail = link.health()
-            if health is LinkHealth.FAILED:
-                lost = f"{self._label()}: depthai could not reconnect ({detail}); {link_hint('X_LINK_ERROR')}"
-                link = self._drop(link)
-                continue
-            if health is LinkHealth.RECONNECTING:
-                if self._state is not SensorState.RECONNECTING:
-                    self._set_state(SensorState.RECONNECTING, f"{self._label()}: link lost, depthai is reconnecting "
-                                                              f"({detail}); {link_hint('X_LINK_ERROR')}")
-                if time.monotonic() - last_frame > c.connect_timeout_s:
-                    lost = f"{self._label()}: depthai's reconnection took over {c.connect_timeout_s:g} s"
-                    link = self._drop(link)
-                continue
-            if self._state is not SensorState.CONNECTED:  # depthai reconnected by itself
-                self._numbering.restart_device_numbering()
-                with self._lock:
-                    self._reconnects += 1
-                self._set_state(SensorState.CONNECTED, "")
-            if got is None:
-                if time.monotonic() - last_frame > c.stall_s:
-                    lost = f"{self._label()}: no frame for {c.stall_s:g} s (stall_s); the pipeline hung"
-                    link = self._drop(link)
-                continue
-            last_frame = time.monotonic()
-            self._deliver(link, got.message, got.age_s)
-        return link
+        return Backoff(c.reconnect_s, c.reconnect_max_s, c.give_up_after)
 
-    @staticmethod
-    def _drop(link: OakLink) -> None:
+    def _retry_note(self, attempt: int, delay: float) -> str:
+        return f"retry {attempt} in {delay:g} s"
+
+    def _crash_reason(self, error: Exception) -> str:
+        return f"{self._label()}: the camera thread stopped: {error!r}"
+
+    def _failure(self, reason: str) -> SensorError:
+        return OakFailed(reason)
+
+    def _close_link(self, link: OakLink) -> None:
         link.close()
-        return None
+
+    def _read_one(self, link: OakLink) -> bool:
+        c = self.config
+        try:
+            got = link.read(READ_SLICE_S)
+        except Exception as e:  # X_LINK_ERROR, QueueException: a lost link, never a crash of the loop
+            raise LinkLost(f"{self._label()}: lost the camera ({e}); {link_hint(str(e))}") from e
+        health, detail = link.health()
+        if health is LinkHealth.FAILED:
+            raise LinkLost(f"{self._label()}: depthai could not reconnect ({detail}); {link_hint('X_LINK_ERROR')}")
+        if health is LinkHealth.RECONNECTING:
+            if self._state is not SensorState.RECONNECTING:
+                self._set_state(SensorState.RECONNECTING, f"{self._label()}: link lost, depthai is reconnecting "
+                                                          f"({detail}); {link_hint('X_LINK_ERROR')}")
+            if time.monotonic() - self._last_frame > c.connect_timeout_s:
+                raise LinkLost(f"{self._label()}: depthai's reconnection took over {c.connect_timeout_s:g} s")
+            return True
+        if self._state is not SensorState.CONNECTED:  # depthai reconnected by itself
+            self._numbering.restart_device_numbering()
+            with self._lock:
+                self._reconnects += 1
+            self._set_state(SensorState.CONNECTED, "")
+        if got is None:
+            if time.monotonic() - self._last_frame > c.stall_s:
+                raise LinkLost(f"{self._label()}: no frame for {c.stall_s:g} s (stall_s); the pipeline hung")
+            return True
+        self._last_frame = time.monotonic()
+        self._deliver(link, got.message, got.age_s)
+        return True
 
     def _reconnect(self) -> tuple[OakLink | None, str]:
         try:
@@ -257,6 +180,10 @@ class OakSensor(SensorContext):
             self.device_id = found.device_id or found.name
         return link, ""
 
+    def _reconnected(self, link: OakLink) -> None:
+        self._numbering.restart_device_numbering()
+        self._last_frame = time.monotonic()
+
     def _deliver(self, link: OakLink, message: object, age_s: float) -> None:
         now = self._clock.now()
         with self._lock:
@@ -269,32 +196,3 @@ class OakSensor(SensorContext):
                 return
             self._sources[source] += 1
             self._queue.put(frame)
-
-    # -------------------------------------------------------------- reading
-
-    def read(self, timeout: float) -> Frame | None:
-        if not self._open:
-            raise SensorNotOpen(f"oak {self.name!r}: read before open (or after close)")
-        frame = self._queue.get(timeout, until=lambda: self._state is SensorState.FAILED)
-        with self._lock:
-            if frame is not None:
-                self._frames += 1
-                return frame
-            if self._state is SensorState.FAILED:
-                raise OakFailed(self._reason)
-            return None
-
-    # -------------------------------------------------------------- closing
-
-    def _halt(self, join: bool = True) -> None:
-        self._stop.set()
-        thread, self._thread = self._thread, None
-        if thread is not None and join:
-            thread.join(_JOIN_S)  # a read returns within READ_SLICE_S; a hung connect is left to finish
-        self._queue.clear()
-        with self._lock:
-            self._state, self._reason = SensorState.CLOSED, ""
-
-    def close(self) -> None:
-        self._halt()
-        self._open = False

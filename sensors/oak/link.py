@@ -1,4 +1,4 @@
-"""What the OAK driver's thread needs from a connection, and its retry schedule.
+"""What the OAK driver's thread needs from a connection.
 
 A :class:`OakLink` is one live connection: a started depthai pipeline and the queue its frames
 arrive on. ``sensors.oak.device`` makes them from real cameras; ``sensors.oak.host_pipeline``
@@ -75,30 +75,3 @@ class OakLink(Protocol):
 
 
 Connector = Callable[[FoundDevice, OakConfig], OakLink]
-
-
-class Backoff:
-    """The outer retry schedule: waits of ``first_s``, doubling, at most ``max_s``; None once
-    ``give_up_after`` attempts (> 0) have failed. ``reset()`` after a success."""
-
-    def __init__(self, first_s: float, max_s: float, give_up_after: int = 0, factor: float = 2.0) -> None:
-        if not 0 < first_s <= max_s:
-            raise ValueError(f"first_s: expected 0 < first_s <= max_s, got {first_s}, {max_s}")
-        if factor < 1:
-            raise ValueError(f"factor: expected >= 1, got {factor}")
-        self.first_s = first_s
-        self.max_s = max_s
-        self.give_up_after = give_up_after
-        self.factor = factor
-        self.attempts = 0
-
-    def next_delay(self) -> float | None:
-        """The wait before the next attempt (and count it), or None when it is time to give up."""
-        if self.give_up_after and self.attempts >= self.give_up_after:
-            return None
-        delay = min(self.max_s, self.first_s * self.factor ** self.attempts)
-        self.attempts += 1
-        return delay
-
-    def reset(self) -> None:
-        self.attempts = 0

@@ -23,7 +23,6 @@ from __future__ import annotations
 import errno
 import math
 import os
-import threading
 import time
 from collections import deque
 from typing import Any
@@ -33,19 +32,17 @@ import serial
 from sensors.base import (
     Frame,
     PadSample,
-    SensorContext,
     SensorError,
-    SensorNotOpen,
     SensorSpec,
     SensorState,
     SensorStatus,
     SensorUnavailable,
 )
 from sensors.clock import Clock
-from sensors.frame_queue import FrameQueue
 from sensors.pads.calibration import PadCalibration
 from sensors.pads.config import PadsConfig
 from sensors.pads.protocol import FRAMINGS, SequenceTracker, StreamParser
+from sensors.threaded import Backoff, LinkLost, ThreadedDriver
 
 QUEUE_SIZE = 32  # frames waiting for read(); at 100 Hz a third of a second
 _READ_SLICE_S = 0.05  # the reader thread's longest wait in one serial read (bounds close())
@@ -76,20 +73,14 @@ def _error_text(e: BaseException) -> str:
     return f"{type(e).__name__}: {e}"
 
 
-class PadsSensor(SensorContext):
+class PadsSensor(ThreadedDriver[Any]):  # the link is a pyserial port
+    driver = "pads"
+
     def __init__(self, config: PadsConfig, clock: Clock, name: str = "pads") -> None:
+        super().__init__(SensorSpec(name=name, kind="pads", rate_hz=float(config.rate_hz), pads=config.pads), clock,
+                         QUEUE_SIZE, _JOIN_S)
         self.config = config
-        self.name = name
-        self._clock = clock
         self._framing = FRAMINGS[config.framing]
-        self._spec = SensorSpec(name=name, kind="pads", rate_hz=float(config.rate_hz), pads=config.pads)
-        self._lock = threading.Lock()
-        self._queue = FrameQueue(QUEUE_SIZE)
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self._open = False
-        self._state = SensorState.CLOSED
-        self._reason = ""
         self._new_parts()
 
     def _new_parts(self) -> None:
@@ -105,10 +96,6 @@ class PadsSensor(SensorContext):
         self._next_seq: int | None = None  # the seq of the next frame; None before the first
         self._last_sample_wall: float | None = None
         self._opened_wall = time.monotonic()
-
-    @property
-    def spec(self) -> SensorSpec:
-        return self._spec
 
     @property
     def status(self) -> SensorStatus:
@@ -163,63 +150,40 @@ class PadsSensor(SensorContext):
         with self._lock:
             self._queue.reset()
             self._new_parts()
-            self._state, self._reason = SensorState.CONNECTED, ""
-        self._stop.clear()
-        self._open = True
-        self._thread = threading.Thread(target=self._read_loop, args=(port,), name=f"pads-{self.name}", daemon=True)
-        self._thread.start()
+        self._start_reader(lambda: port)
 
     # -------------------------------------------------------------- reader thread
 
-    def _set_state(self, state: SensorState, reason: str) -> None:
-        with self._lock:
-            self._state, self._reason = state, reason
-        self._queue.wake()  # a reader waiting for a frame also stops waiting on FAILED
+    def _backoff(self) -> Backoff:
+        return Backoff(self.config.reconnect_s, self.config.reconnect_s)
 
-    def _read_loop(self, port: Any) -> None:
-        every = self.config.reconnect_s
+    def _crash_reason(self, error: Exception) -> str:
+        return f"the reader thread of {self.config.port} stopped: {error!r}"
+
+    def _failure(self, reason: str) -> SensorError:
+        return PadsFailed(f"pads {self.name!r}: {reason}")
+
+    def _read_one(self, port: Any) -> bool:
         try:
-            while not self._stop.is_set():
-                if port is None:
-                    port = self._reopen()
-                    continue
-                try:
-                    data = port.read(port.in_waiting or 1)
-                except OSError as e:  # unplugged: EIO, or "readiness to read but returned no data"
-                    self._close_quietly(port)
-                    port = None
-                    self._set_state(SensorState.RECONNECTING, f"lost serial port {self.config.port}: "
-                                                              f"{_error_text(e)}; reopening every {every:g} s")
-                    self._stop.wait(every)
-                    continue
-                if data and not self._ingest(data):
-                    break  # FAILED
-        except Exception as e:  # a bug, not a line fault: say so in the status, and let it be printed
-            self._set_state(SensorState.FAILED, f"the reader thread of {self.config.port} stopped: {e!r}")
-            raise
-        finally:
-            if port is not None:
-                self._close_quietly(port)
+            data = port.read(port.in_waiting or 1)
+        except OSError as e:  # unplugged: EIO, or "readiness to read but returned no data"
+            raise LinkLost(f"lost serial port {self.config.port}: {_error_text(e)}") from e
+        return not data or self._ingest(data)
 
-    def _reopen(self) -> Any:
+    def _reconnect(self) -> tuple[Any, str]:
         try:
             port = self._open_port()
         except SensorUnavailable as e:
-            self._set_state(SensorState.RECONNECTING, f"{e}; retrying every {self.config.reconnect_s:g} s")
-            self._stop.wait(self.config.reconnect_s)
-            return None
+            return None, str(e)
         with self._lock:
             self._parser.reset()
             self._tracker.reset()
             self._calibration.reset()  # the board may have restarted: learn its zero again
-            self._reconnects += 1
             self._last_sample_wall = None
             self._opened_wall = time.monotonic()
-        self._set_state(SensorState.CONNECTED, "")
-        return port
+        return port, ""
 
-    @staticmethod
-    def _close_quietly(port: Any) -> None:
+    def _close_link(self, port: Any) -> None:
         try:
             port.close()
         except OSError:
@@ -267,29 +231,3 @@ class PadsSensor(SensorContext):
         for _ in range(min(count, times.maxlen or 1)):
             times.append(wall)
         return len(times) == times.maxlen and wall - times[0] < 1.0
-
-    # -------------------------------------------------------------- reading
-
-    def read(self, timeout: float) -> Frame | None:
-        if not self._open:
-            raise SensorNotOpen(f"pads {self.name!r}: read before open (or after close)")
-        frame = self._queue.get(timeout, until=lambda: self._state is SensorState.FAILED)
-        with self._lock:
-            if frame is not None:
-                self._frames += 1
-                return frame
-            if self._state is SensorState.FAILED:
-                raise PadsFailed(f"pads {self.name!r}: {self._reason}")
-            return None
-
-    # -------------------------------------------------------------- closing
-
-    def close(self) -> None:
-        self._stop.set()
-        thread, self._thread = self._thread, None
-        if thread is not None:
-            thread.join(_JOIN_S)  # the thread's serial read returns within _READ_SLICE_S
-        self._open = False
-        self._queue.clear()
-        with self._lock:
-            self._state, self._reason = SensorState.CLOSED, ""

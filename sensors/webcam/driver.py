@@ -7,7 +7,8 @@ Two ways of running, chosen by the source:
   capture; ``read(timeout)`` waits at most ``timeout``. When the camera or stream vanishes the
   status turns RECONNECTING with the reason, the thread retries every ``reconnect_s``, and the
   status returns to CONNECTED once frames flow again. ``seq`` counts captured frames, so drops
-  show as gaps.
+  show as gaps. The thread is :class:`sensors.threaded.ThreadedDriver`'s; if it crashes (a bug),
+  the status turns FAILED and ``read`` raises.
 - **File**: frames follow the file's own timeline, ``t = t_open + index / file fps``, and each is
   returned only once it is due on the clock (like a replay): no thread, no waiting, deterministic
   on a SimClock; ENDED after the last frame.
@@ -16,25 +17,15 @@ Two ways of running, chosen by the source:
 from __future__ import annotations
 
 import math
-import threading
 from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
-from sensors.base import (
-    ColorImage,
-    Frame,
-    SensorContext,
-    SensorNotOpen,
-    SensorSpec,
-    SensorState,
-    SensorStatus,
-    SensorUnavailable,
-)
+from sensors.base import ColorImage, Frame, SensorSpec, SensorState, SensorUnavailable
 from sensors.clock import Clock
-from sensors.frame_queue import FrameQueue
+from sensors.threaded import Backoff, LinkLost, ThreadedDriver
 from sensors.webcam.config import WebcamConfig
 
 QUEUE_SIZE = 2  # live frames waiting for read(); older ones are dropped
@@ -50,19 +41,13 @@ def _as_bgr(image: np.ndarray) -> np.ndarray:
     return image
 
 
-class WebcamSensor(SensorContext):
+class WebcamSensor(ThreadedDriver[Any]):  # the link is a cv2.VideoCapture (live mode only)
+    driver = "webcam"
+
     def __init__(self, config: WebcamConfig, clock: Clock, name: str = "webcam") -> None:
+        super().__init__(SensorSpec(name=name, kind="color", rate_hz=float(config.fps), width=config.width,
+                                    height=config.height), clock, QUEUE_SIZE, _JOIN_S)
         self.config = config
-        self.name = name
-        self._clock = clock
-        self._spec = SensorSpec(name=name, kind="color", rate_hz=float(config.fps), width=config.width,
-                                height=config.height)
-        self._lock = threading.Lock()
-        self._state = SensorState.CLOSED
-        self._reason = ""
-        self._frames = 0
-        self._reconnects = 0
-        self._open = False
         # file mode
         self._cap: Any = None
         self._next_image: np.ndarray | None = None
@@ -70,19 +55,7 @@ class WebcamSensor(SensorContext):
         self._file_fps = 0.0
         self._t_open = 0.0
         # live mode
-        self._queue = FrameQueue(QUEUE_SIZE)
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-
-    @property
-    def spec(self) -> SensorSpec:
-        return self._spec
-
-    @property
-    def status(self) -> SensorStatus:
-        with self._lock:
-            return SensorStatus(state=self._state, reason=self._reason, frames=self._frames,
-                                dropped=self._queue.dropped, extra={"reconnects": float(self._reconnects)})
+        self._seq = 0  # frames captured since open: drops show as gaps
 
     # -------------------------------------------------------------- opening
 
@@ -107,9 +80,9 @@ class WebcamSensor(SensorContext):
             return
         if self.config.kind == "file":
             self._open_file()
+            self._open = True
         else:
             self._open_live()
-        self._open = True
 
     def _open_file(self) -> None:
         path = Path(self.config.source)
@@ -153,60 +126,40 @@ class WebcamSensor(SensorContext):
         self._queue.reset()
         with self._lock:
             self._frames = self._reconnects = 0
-            self._state, self._reason = SensorState.CONNECTED, ""
-        self._stop.clear()
-        self._thread = threading.Thread(target=self._capture_loop, args=(cap,), name=f"webcam-{self.name}", daemon=True)
-        self._thread.start()
+        self._seq = 0
+        self._start_reader(lambda: cap)
 
     # -------------------------------------------------------------- live capture thread
 
-    def _set_state(self, state: SensorState, reason: str) -> None:
-        with self._lock:
-            self._state, self._reason = state, reason
+    def _backoff(self) -> Backoff:
+        return Backoff(self.config.reconnect_s, self.config.reconnect_s)
 
-    def _capture_loop(self, cap: Any) -> None:
-        seq = 0
-        every = self.config.reconnect_s
-        try:
-            while not self._stop.is_set():
-                if cap is None:
-                    cap = self._capture()
-                    if cap is None:
-                        self._set_state(SensorState.RECONNECTING,
-                                        f"cannot reopen {self.config.source!r}; retrying every {every:g} s")
-                        self._stop.wait(every)
-                        continue
-                    with self._lock:
-                        self._reconnects += 1
-                    self._set_state(SensorState.CONNECTED, "")
-                ok, image = cap.read()
-                t = self._clock.now()
-                if not ok or image is None:
-                    cap.release()
-                    cap = None
-                    self._set_state(SensorState.RECONNECTING, f"no frame from {self.config.source!r} (unplugged, "
-                                                              f"or the stream ended); retrying every {every:g} s")
-                    self._stop.wait(every)
-                    continue
-                frame = Frame(sensor=self.name, t=t, seq=seq, payload=ColorImage(_as_bgr(image)))
-                seq += 1
-                self._queue.put(frame)
-        finally:
-            if cap is not None:
-                cap.release()
+    def _crash_reason(self, error: Exception) -> str:
+        return f"the capture thread of {self.config.source!r} stopped: {error!r}"
+
+    def _read_one(self, cap: Any) -> bool:
+        ok, image = cap.read()
+        t = self._clock.now()
+        if not ok or image is None:
+            raise LinkLost(f"no frame from {self.config.source!r} (unplugged, or the stream ended)")
+        self._queue.put(Frame(sensor=self.name, t=t, seq=self._seq, payload=ColorImage(_as_bgr(image))))
+        self._seq += 1
+        return True
+
+    def _reconnect(self) -> tuple[Any, str]:
+        cap = self._capture()
+        return (None, f"cannot reopen {self.config.source!r}") if cap is None else (cap, "")
+
+    def _close_link(self, cap: Any) -> None:
+        cap.release()
 
     # -------------------------------------------------------------- reading
 
     def read(self, timeout: float) -> Frame | None:
-        if not self._open:
-            raise SensorNotOpen(f"webcam {self.name!r}: read before open (or after close)")
-        if self.config.kind == "file":
-            return self._read_file()
-        frame = self._queue.get(timeout)
-        if frame is not None:
-            with self._lock:
-                self._frames += 1
-        return frame
+        if self.config.kind != "file":
+            return super().read(timeout)
+        self._check_open()
+        return self._read_file()
 
     def _read_file(self) -> Frame | None:
         image = self._next_image
@@ -233,15 +186,8 @@ class WebcamSensor(SensorContext):
     # -------------------------------------------------------------- closing
 
     def close(self) -> None:
-        self._stop.set()
-        thread, self._thread = self._thread, None
-        if thread is not None:
-            thread.join(_JOIN_S)  # a capture stuck in read() releases itself when it returns
+        super().close()  # stops the live thread; a capture stuck in read() releases itself when it returns
         if self._cap is not None:
             self._cap.release()
             self._cap = None
         self._next_image = None
-        self._open = False
-        self._queue.clear()
-        with self._lock:
-            self._state, self._reason = SensorState.CLOSED, ""

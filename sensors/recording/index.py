@@ -9,7 +9,7 @@ The summary is used only if it is *usable*: footer and closing magic present, su
 statistics present, every chunk's message indexes present and adding up to the statistics' message
 count (so no message lives outside a chunk), every chunk inside the data section. Anything else
 (a cut file, a file written without indexes, a damaged summary) gives None, and the caller walks the
-file record by record instead (:class:`sensors.recording_stream.RecordingStream`).
+file record by record instead (:class:`sensors.recording.stream.RecordingStream`).
 
 Chunk contents are not checked here: a corrupt chunk is found (CRC, decompression, record framing)
 when it is read, and :class:`ChunkUnreadable` says why.
@@ -28,7 +28,7 @@ from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, ChunkIndex, Metadata, MetadataIndex, Schema, Statistics
 
-from sensors.recording_stream import MCAP_MAGIC, RecordedMessage
+from sensors.recording.stream import MCAP_MAGIC, RecordedMessage
 
 _HEAD = struct.Struct("<BQ")  # opcode, record length
 _FOOTER = struct.Struct("<QQI")  # summary start, summary offset start, summary CRC

@@ -1,8 +1,8 @@
-"""What a recording holds (``jostle info``), and its frames one by one (what ``Replay`` plays).
+"""What a recording holds (``jostle info``), and which channel a replay plays.
 
 A complete file is described from its summary section and message indexes
-(:mod:`sensors.recording_index`); a cut or damaged one, or one written without indexes, by reading
-every record (:class:`sensors.recording_stream.RecordingStream`).
+(:mod:`sensors.recording.index`); a cut or damaged one, or one written without indexes, by reading
+every record (:class:`sensors.recording.stream.RecordingStream`).
 
 Damage is reported with ``warnings.warn`` and the category :class:`RecordingDamaged` (a
 ``UserWarning``): the frames before the damage are kept, the user is told once which file broke,
@@ -12,22 +12,21 @@ at which byte and at which time, and tests can catch it with ``pytest.warns``.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from sensors.base import (
     ColorImage,
     DepthImage,
-    Frame,
     PadSample,
     Payload,
     RecordingCorrupt,
     SensorUnavailable,
 )
-from sensors.mcap_codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
-from sensors.recording_index import ChunkRef, ChunkUnreadable, RecordingIndex, read_chunk, read_index
-from sensors.recording_stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
+from sensors.recording.codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
+from sensors.recording.index import ChunkRef, ChunkUnreadable, RecordingIndex, read_chunk, read_index
+from sensors.recording.stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
 
 FRAME_KINDS = ("color", "depth", "pads")
 METADATA_NAME = "jostle"
@@ -230,35 +229,6 @@ def select_channel(info: RecordingInfo, channel: str | None) -> ChannelInfo:
         raise SensorUnavailable(f"{info.path}: the recording holds {len(sensors)} sensor channels ({listing}); "
                                 "choose one with channel = \"<name>\"")
     return sensors[0]
-
-
-def iter_payloads(
-    path: Path, channel: str, on_damage: Callable[[str], None] | None = warn_damage
-) -> Iterator[tuple[int, int, Payload]]:
-    """(log time ns, sequence, payload) of one sensor channel, in file order.
-
-    Stops at the first damage (structural or an undecodable message) and calls ``on_damage`` once
-    with a one-line description.
-    """
-    from sensors.replay_source import Damaged, open_recording, sensor_items
-
-    recording = open_recording(Path(path))
-    try:
-        for item in sensor_items(recording, channel):
-            if isinstance(item, Damaged):
-                if on_damage is not None:
-                    on_damage(item.text)
-                return
-            yield item
-    finally:
-        recording.release()
-
-
-def iter_frames(path: Path, channel: str | None = None) -> Iterator[Frame]:
-    """The frames of one sensor channel (the only one if ``channel`` is None), times in seconds."""
-    topic = channel or select_channel(describe_recording(Path(path)), None).topic
-    for t_ns, seq, payload in iter_payloads(Path(path), topic):
-        yield Frame(sensor=topic, t=t_ns / 1e9, seq=seq, payload=payload)
 
 
 def format_info(info: RecordingInfo) -> str:

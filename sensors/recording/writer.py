@@ -5,10 +5,8 @@ What "identical" means when a replay is recorded again (``record(replay(f))``):
 - depth and pad frames, and colour recorded with ``color_format="png"``: bit-exact. Replaying the
   new file gives frames whose :func:`frame_digest` equals those of ``replay(f)``.
 - colour recorded as JPEG (the default): sensor, time, sequence and image size are exact; the
-  pixels are JPEG-decoded and re-encoded, which is lossy (measured here on 160×120 drawn frames at
-  quality 85: mean absolute change ≈ 0.6 levels per generation, max ≈ 20). Compare those within a
-  tolerance. The alternative — carrying the original JPEG bytes through ``ColorImage`` — would
-  change the shape of ``sensors.base``; use PNG when a chain of re-recordings must stay exact.
+  pixels are JPEG-decoded and re-encoded, which is lossy: compare them within a tolerance, or use
+  PNG when a chain of re-recordings must stay exact. Figures: docs/notes/recording-jpeg.md.
 
 Times: ``Frame.t`` (seconds) is stored as integer nanoseconds (MCAP log and publish time, and the
 message's own timestamp), so it is rounded to 1 ns; a replayed time is ``ns / 1e9``.
@@ -30,7 +28,7 @@ from typing import Any
 from mcap.writer import CompressionType, Writer
 
 from sensors.base import Frame, Sensor, SensorContext, SensorSpec, SensorStatus
-from sensors.mcap_codec import (
+from sensors.recording.codec import (
     META_KIND,
     META_ROLE,
     META_SENSOR,
@@ -39,7 +37,7 @@ from sensors.mcap_codec import (
     encode_frame,
     schema_definition,
 )
-from sensors.recording_info import METADATA_NAME
+from sensors.recording.info import METADATA_NAME
 
 _RESERVED_METADATA = ("created", "jostle_version")
 _UINT32 = 2**32

@@ -4,25 +4,16 @@ At ``open()`` the replay notes ``clock.now()``; a recorded frame is due at
 ``recorded t − first t of the recording + that open time`` and ``read`` returns due frames one per
 call, oldest first. ``read`` never sleeps (``timeout`` is accepted and ignored) and returns None
 when nothing is due, so on a SimClock a replay is deterministic and runs as fast as the loop.
-
-Speed: every replay of one file in the process shares one reader
-(:func:`sensors.replay_source.open_recording`): a complete file is described from its summary, and
-each chunk is decompressed once for all its sensors. Each open replay decodes its frames in its
-own thread, at most :data:`LOOKAHEAD` frames ahead of ``read``; ``read`` waits for a frame that is
-due but not decoded yet (never returns None for it), so what a replay returns, and when, does not
-depend on how fast the machine is.
 "First t" is the earliest sensor message of the whole file, so several replays of one file on one
 clock stay in step. Times are kept in integer nanoseconds, so recording a replay again and
 replaying that gives the very same times.
 
-A recording whose own times go back, or whose sequence numbers do not increase (some writers
-leave them at 0), is played with t held and seq counted on, so the Sensor contract still holds.
-
-Damage (a cut or corrupt file) is reported once per replay with ``warnings.warn``
-(:class:`sensors.recording_info.RecordingDamaged`); the frames before it are played, then ENDED.
-With ``loop=True`` the good part repeats; each pass shifts t by the recording's span plus one
-interval of its fastest sensor (the same for every channel of the file, so they stay in step) and
-seq by the number of sequence numbers in a pass, so both keep increasing.
+Every replay of one file shares one reader (:func:`sensors.recording.source.open_recording`), and
+each decodes its frames in its own thread, at most :data:`LOOKAHEAD` frames ahead of ``read``;
+``read`` waits for a frame that is due but not decoded yet, so what a replay returns, and when,
+does not depend on how fast the machine is. Damage (a cut or corrupt file) is reported once per
+replay with ``warnings.warn`` (:class:`sensors.recording.info.RecordingDamaged`); the frames
+before it are played, then ENDED. Out-of-order times and looping: see :class:`Replay`.
 """
 
 from __future__ import annotations
@@ -42,8 +33,8 @@ from sensors.base import (
     SensorStatus,
 )
 from sensors.clock import Clock
-from sensors.recording_info import ChannelInfo, select_channel, warn_damage
-from sensors.replay_source import END, PASS_END, Damaged, SensorFeed, SharedRecording, open_recording
+from sensors.recording.info import ChannelInfo, select_channel, warn_damage
+from sensors.recording.source import END, PASS_END, Damaged, SensorFeed, SharedRecording, open_recording
 
 _DUE_TOLERANCE_S = 1e-9  # times are whole nanoseconds; the clock is a float
 # frames decoded ahead of the reader, per sensor: images ~0.5-1 MB each, pad samples tiny
@@ -80,7 +71,14 @@ def _spec(name: str, info: ChannelInfo) -> SensorSpec:
 
 
 class Replay(SensorContext):
-    """A recorded sensor channel, played on ``clock``. See the module docstring for the timing rule."""
+    """A recorded sensor channel, played on ``clock``. See the module docstring for the timing rule.
+
+    A recording whose own times go back, or whose sequence numbers do not increase (some writers
+    leave them at 0), is played with t held and seq counted on, so the Sensor contract still holds.
+    With ``loop=True`` the good part repeats; each pass shifts t by the recording's span plus one
+    interval of its fastest sensor (the same for every channel of the file, so they stay in step)
+    and seq by the number of sequence numbers in a pass, so both keep increasing.
+    """
 
     def __init__(
         self, path: Path, clock: Clock, *, channel: str | None = None, name: str | None = None, loop: bool = False

@@ -12,6 +12,8 @@ modification time), so a rewritten file is read afresh.
 it in a background thread into a bounded queue, so decoding (zstd and JPEG decoding release the
 GIL) overlaps the caller's work and the other sensors' decoding. What a feed yields is a function of
 the file alone — it never skips or reorders to keep up — so a replay stays deterministic.
+:func:`iter_payloads` and :func:`iter_frames` read one channel in the caller's thread, warning once
+on damage.
 """
 
 from __future__ import annotations
@@ -21,18 +23,25 @@ import os
 import queue
 import threading
 from collections import OrderedDict
-from collections.abc import Generator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
 
 from mcap.records import Channel, Schema
 
-from sensors.base import Payload
-from sensors.mcap_codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
-from sensors.recording_index import ChunkRef, ChunkUnreadable, RecordingIndex, read_chunk, read_index
-from sensors.recording_info import RecordingInfo, describe_indexed, describe_scan
-from sensors.recording_stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
+from sensors.base import Frame, Payload
+from sensors.recording.codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
+from sensors.recording.index import ChunkRef, ChunkUnreadable, RecordingIndex, read_chunk, read_index
+from sensors.recording.info import (
+    RecordingInfo,
+    describe_indexed,
+    describe_recording,
+    describe_scan,
+    select_channel,
+    warn_damage,
+)
+from sensors.recording.stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
 
 CHUNK_CACHE_BYTES = 64 * 1024 * 1024
 _SENSOR_ROLES = ("frame", "calibration", "aligned_color")
@@ -224,6 +233,33 @@ def sensor_items(
                 last_ns = msg.log_time_ns
                 count += 1
                 yield msg.log_time_ns, msg.sequence, payload
+
+
+def iter_payloads(
+    path: Path, channel: str, on_damage: Callable[[str], None] | None = warn_damage
+) -> Iterator[tuple[int, int, Payload]]:
+    """(log time ns, sequence, payload) of one sensor channel, in file order.
+
+    Stops at the first damage (structural or an undecodable message) and calls ``on_damage`` once
+    with a one-line description.
+    """
+    recording = open_recording(Path(path))
+    try:
+        for item in sensor_items(recording, channel):
+            if isinstance(item, Damaged):
+                if on_damage is not None:
+                    on_damage(item.text)
+                return
+            yield item
+    finally:
+        recording.release()
+
+
+def iter_frames(path: Path, channel: str | None = None) -> Iterator[Frame]:
+    """The frames of one sensor channel (the only one if ``channel`` is None), times in seconds."""
+    topic = channel or select_channel(describe_recording(Path(path)), None).topic
+    for t_ns, seq, payload in iter_payloads(Path(path), topic):
+        yield Frame(sensor=topic, t=t_ns / 1e9, seq=seq, payload=payload)
 
 
 class _Marker:
