@@ -26,7 +26,7 @@ BENCHES: dict[str, tuple[str, str]] = {
     "render": ("render.bench", "headless frame rate and pose evaluation cost for N characters"),
     "sensors": ("sensors.bench", "pad parser fuzz and rate, recording replay speed"),
     "interaction": ("jostle.bench_interaction", "observers against virtual-performer ground truth"),
-    "synth": ("jostle.synth.bench", "virtual performer: ms per frame of webcam, OAK depth (+colour) and pads"),
+    "synth": ("jostle.performer.bench", "virtual performer: ms per frame of webcam, OAK depth (+colour) and pads"),
     "soak": ("jostle.soak", "the demo looped headless for minutes: memory and frame-rate drift"),
     "ragdoll": ("jostle.bench_ragdoll", "articulated characters: cost vs DeepMimic stable PD, tracking, pushes, get-ups"),
     "quadruped": ("sim.quadruped.bench", "quadruped on generated cube terrains: goals, feet, replan time, fps"),

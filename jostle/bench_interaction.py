@@ -1,8 +1,8 @@
 """``jostle bench interaction``: the observers against virtual-performer ground truth.
 
-(It lives in jostle/ because it records with :mod:`jostle.synth`; interaction/ may not import it.)
+(It lives in jostle/ because it records with :mod:`jostle.performer`; interaction/ may not import it.)
 
-Records crossings of 1 to 4 people (``jostle.synth``: webcam 640×480, OAK depth 640×400, ground
+Records crossings of 1 to 4 people (``jostle.performer``: webcam 640×480, OAK depth 640×400, ground
 truth; 15 fps unless ``--fps`` says otherwise) into a temporary folder, calibrates the depth camera from its own empty-stage frames
 (floor by RANSAC, the camera's foot point as the user would give it), runs the webcam observer
 (silhouette and flow; then with pose on the one-person recording) and the depth observer over
@@ -129,8 +129,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def _record(path: Path, people: int, size: tuple[int, int], depth_size: tuple[int, int], duration: float,
             seed: int, fps: float) -> None:
-    from jostle.synth.config import DepthCameraConfig, PerformerConfig
-    from jostle.synth.session import SynthSensors, record_performance
+    from jostle.performer.config import DepthCameraConfig, PerformerConfig
+    from jostle.performer.session import SynthSensors, record_performance
 
     config = PerformerConfig(clips=("walk", "punch"), width=size[0], height=size[1], fps=fps,
                              duration_s=duration, seed=seed, empty_s=1.0, people=people, route="crossing")
@@ -208,7 +208,7 @@ def _score_recording(path: Path, scores: _Scores, *, pose: bool, shoe_model: boo
     from interaction.fusion import SensorFusion
     from interaction.types import BodyObservation
     from interaction.webcam import WebcamObserver, WebcamObserverConfig
-    from jostle.synth.truth import read_cameras, read_truth
+    from jostle.performer.truth import read_cameras, read_truth
     from sensors.base import DepthImage, Frame
     from sensors.recording_info import iter_payloads
 
@@ -328,7 +328,7 @@ def _depth_errors(obs: Any, frame_truth: Any, last_truth: Any, scores: _Scores) 
 
 
 def _webcam_errors(obs: Any, frame_truth: Any, camera: Any, homography: np.ndarray, scores: _Scores) -> None:
-    from jostle.synth.camera import apply_homography
+    from jostle.performer.camera import apply_homography
 
     if frame_truth is None:
         return

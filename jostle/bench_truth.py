@@ -1,7 +1,7 @@
 """Where the virtual performer's hands and feet really are, for ``jostle bench interaction``.
 
 The hand is a sphere 2 cm beyond the wrist along the forearm; the shoe a box whose centre is 46.6 %
-of the way from the ankle to the toe and 1.2 cm below that line, toward the sole (``jostle.synth.dress``,
+of the way from the ankle to the toe and 1.2 cm below that line, toward the sole (``jostle.performer.dress``,
 per metre of body size). Contactors are compared with these centres, not with the wrist and ankle
 joints they hang from.
 

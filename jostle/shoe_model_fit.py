@@ -67,7 +67,7 @@ def recording_rows(path: Path) -> tuple[list[np.ndarray], list[np.ndarray]]:
     from interaction.shoe_model import view_frame
     from jostle.bench_interaction import _depth_calibration
     from jostle.bench_truth import part_centres
-    from jostle.synth.truth import read_cameras, read_truth
+    from jostle.performer.truth import read_cameras, read_truth
     from sensors.base import DepthImage, Frame
     from sensors.recording_info import iter_payloads
 

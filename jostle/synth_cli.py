@@ -180,9 +180,9 @@ def cmd_synth_performer(args: argparse.Namespace) -> int:
     from interaction.calibration import Calibration
     from jostle.cli import UsageError
     from jostle.progress import Progress
-    from jostle.synth.config import DepthCameraConfig, PerformerConfig
-    from jostle.synth.pads import default_pad_layout, load_pad_layout
-    from jostle.synth.session import SynthSensors, record_performance
+    from jostle.performer.config import DepthCameraConfig, PerformerConfig
+    from jostle.performer.pads import default_pad_layout, load_pad_layout
+    from jostle.performer.session import SynthSensors, record_performance
 
     chosen = [s.strip() for s in args.sensors.split(",") if s.strip()]
     unknown = [s for s in chosen if s not in SENSOR_CHOICES]

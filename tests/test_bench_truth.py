@@ -13,7 +13,7 @@ import pytest
 from interaction.types import BodyObservation, Contactor
 from jostle import bench_interaction
 from jostle.bench_truth import LinearCeiling, body_part_centres, true_steps
-from jostle.synth.truth import PersonTruth, TruthFrame
+from jostle.performer.truth import PersonTruth, TruthFrame
 from sim.motion.mocap import HUMANOID
 
 OMEGA, DT = 0.5, 1 / 15  # a rigid body turning about a vertical axis 10 m away: parts move ≈ 5 m/s

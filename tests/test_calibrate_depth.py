@@ -11,7 +11,7 @@ import pytest
 
 from interaction.depth_calibration import DepthCalibration, DepthCalibrationError, calibrate_depth, fit_floor
 from jostle import calibrate_cli
-from jostle.synth.truth import read_cameras
+from jostle.performer.truth import read_cameras
 from sensors.base import DepthImage
 from sensors.recording_info import iter_payloads
 

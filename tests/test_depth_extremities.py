@@ -19,15 +19,15 @@ from interaction.depth import DepthObserver, DepthObserverConfig
 from interaction.types import BodyObservation
 from jostle.bench_interaction import _depth_calibration
 from jostle.bench_truth import body_part_centres
-from jostle.synth.truth import TruthFrame, read_cameras, read_truth
+from jostle.performer.truth import TruthFrame, read_cameras, read_truth
 from sensors.base import DepthImage, Frame
 from sensors.recording_info import iter_payloads
 
 
 @pytest.fixture(scope="module")
 def walk(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[BodyObservation, TruthFrame]]:
-    from jostle.synth.config import DepthCameraConfig, PerformerConfig
-    from jostle.synth.session import SynthSensors, record_performance
+    from jostle.performer.config import DepthCameraConfig, PerformerConfig
+    from jostle.performer.session import SynthSensors, record_performance
 
     path = tmp_path_factory.mktemp("walk") / "walk.mcap"
     config = PerformerConfig(clips=("walk", "punch"), width=160, height=120, fps=15.0, duration_s=4.0, seed=3,

@@ -23,7 +23,7 @@ from interaction.calibration import Calibration
 from interaction.depth import DepthObserver, DepthObserverConfig
 from interaction.depth_calibration import calibrate_depth, fit_floor
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
-from jostle.synth.truth import read_cameras
+from jostle.performer.truth import read_cameras
 from sensors.base import ColorImage, DepthImage, Frame
 from sensors.recording_info import iter_payloads
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jostle.synth.camera import PinholeCamera
+from jostle.performer.camera import PinholeCamera
 
 
 @dataclass(frozen=True)

@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from jostle.synth.camera import PinholeCamera
-from jostle.synth.pads import PadBoardConfig, PadLayout, PadPlacement
-from jostle.synth.scene import PersonState
+from jostle.performer.camera import PinholeCamera
+from jostle.performer.pads import PadBoardConfig, PadLayout, PadPlacement
+from jostle.performer.scene import PersonState
 from sensors.base import RecordingCorrupt
 from sensors.recording_info import describe_recording
 from sensors.recording_stream import RecordingStream

@@ -6,14 +6,14 @@ returns it once the clock has reached that time (never sleeping, never skipping)
 ``route = "round"`` the first ``empty_s`` seconds show the empty room; then a DeepMimic humanoid
 walks in from the left along the stage plane y = 0 (stopping left of centre to perform the action
 clips, if any), turns, walks back and leaves; the round then repeats (see
-``jostle.synth.choreography``). With ``route = "crossing"`` 1..4 people of different sizes cross
-the stage on their own lanes (``jostle.synth.cast``). Every frame is a pure function of (config,
+``jostle.performer.choreography``). With ``route = "crossing"`` 1..4 people of different sizes cross
+the stage on their own lanes (``jostle.performer.cast``). Every frame is a pure function of (config,
 k): the same config and seed give the same bytes. :meth:`PerformerSensor.truth` gives what is
 really there (silhouette, body parts, who is where, joints in stage metres and their velocities)
 and :meth:`PerformerSensor.homography` the exact map from pixels to the stage plane.
 
-The people are a :class:`jostle.synth.scene.Performance`; pass the same one to the virtual OAK
-(``jostle.synth.depth``) and pads (``jostle.synth.pads``) to record them all together.
+The people are a :class:`jostle.performer.scene.Performance`; pass the same one to the virtual OAK
+(``jostle.performer.depth``) and pads (``jostle.performer.pads``) to record them all together.
 """
 
 from __future__ import annotations
@@ -22,12 +22,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jostle.synth.choreography import SegmentPath
-from jostle.synth.config import PerformerConfig
-from jostle.synth.puppet import HumanoidPuppet, PuppetImage
-from jostle.synth.room import RoomImage
-from jostle.synth.scene import Performance, PersonState, compose_colour
-from jostle.synth.timeline import TimelineSensor
+from jostle.performer.choreography import SegmentPath
+from jostle.performer.config import PerformerConfig
+from jostle.performer.puppet import HumanoidPuppet, PuppetImage
+from jostle.performer.room import RoomImage
+from jostle.performer.scene import Performance, PersonState, compose_colour
+from jostle.performer.timeline import TimelineSensor
 from sensors.base import ColorImage, SensorNotOpen, SensorSpec
 from sensors.clock import Clock
 from sim.motion.mocap import HUMANOID

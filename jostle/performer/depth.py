@@ -5,7 +5,7 @@ millimetres along the optical axis, 0 = no data, exact pinhole intrinsics, and t
 image when ``DepthCameraConfig.color``). The clean depth is the room (ray-cast once, floor
 included) and the people (pybullet's TINY renderer depth buffer, converted with the near and far
 planes), nearest first. :func:`stereo_depth` then applies the stereo error model described on
-:class:`~jostle.synth.config.DepthCameraConfig`. The depth map is aligned to the left camera of
+:class:`~jostle.performer.config.DepthCameraConfig`. The depth map is aligned to the left camera of
 the pair, so the band the right camera cannot see lies to the left of nearer objects.
 """
 
@@ -17,11 +17,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from jostle.synth.config import DepthCameraConfig
-from jostle.synth.puppet import PuppetImage
-from jostle.synth.room import RoomImage
-from jostle.synth.scene import Performance, PersonState, compose_colour
-from jostle.synth.timeline import TimelineSensor
+from jostle.performer.config import DepthCameraConfig
+from jostle.performer.puppet import PuppetImage
+from jostle.performer.room import RoomImage
+from jostle.performer.scene import Performance, PersonState, compose_colour
+from jostle.performer.timeline import TimelineSensor
 from sensors.base import DepthImage, SensorNotOpen, SensorSpec
 from sensors.clock import Clock
 

@@ -2,7 +2,7 @@
 webcam filming them) and the virtual OAK depth camera (:class:`DepthCameraConfig`).
 
 Both are frozen config dataclasses of simple fields, validated in ``__post_init__`` with errors
-that start with the field's name. The pads are placed by a layout (``jostle.synth.pads``).
+that start with the field's name. The pads are placed by a layout (``jostle.performer.pads``).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Literal
 
 import numpy as np
 
-from jostle.synth.camera import PinholeCamera
+from jostle.performer.camera import PinholeCamera
 from sim.motion.mocap import MotionClip, MotionFileError, pybullet_motion_path
 
 Route = Literal["round", "crossing"]
@@ -64,7 +64,7 @@ class PerformerConfig:
     walking out, over and over (the demo); ``"crossing"`` is 1..4 people, each walking straight
     across the stage along their own lane (y), in from just out of view, some from the left and some
     from the right, so that they pass each other near the middle about 3.5 s after the empty start,
-    each playing their own action clips on the way (``jostle.synth.cast``). Unset sizes, lanes,
+    each playing their own action clips on the way (``jostle.performer.cast``). Unset sizes, lanes,
     paces and start times come from ``seed``.
     ``person_clips`` gives each person's clip sequence as ``"walk+punch"`` (default: ``clips``,
     with the actions in a different order for each person).

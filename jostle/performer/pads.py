@@ -27,10 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from jostle.synth.choreography import SegmentPath, StagePose, mocap_to_stage, stage_joint_frames
-from jostle.synth.config import check_number, check_whole
-from jostle.synth.scene import Performance
-from jostle.synth.timeline import TimelineSensor
+from jostle.performer.choreography import SegmentPath, StagePose, mocap_to_stage, stage_joint_frames
+from jostle.performer.config import check_number, check_whole
+from jostle.performer.scene import Performance
+from jostle.performer.timeline import TimelineSensor
 from sensors.base import PadSample, SensorSpec
 from sensors.clock import Clock
 from sim.motion import quaternion as quat

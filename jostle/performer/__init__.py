@@ -9,10 +9,10 @@ to make the shipped demo recording and the test fixtures, and as ground truth fo
   ground truth back.
 """
 
-from jostle.synth.camera import PinholeCamera, apply_homography
-from jostle.synth.config import DepthCameraConfig, PerformerConfig
-from jostle.synth.depth import DepthTruth, PerformerDepth
-from jostle.synth.pads import (
+from jostle.performer.camera import PinholeCamera, apply_homography
+from jostle.performer.config import DepthCameraConfig, PerformerConfig
+from jostle.performer.depth import DepthTruth, PerformerDepth
+from jostle.performer.pads import (
     PadBoardConfig,
     PadLayout,
     PadPlacement,
@@ -21,10 +21,10 @@ from jostle.synth.pads import (
     load_pad_layout,
     pad_forces,
 )
-from jostle.synth.performer import PerformerSensor, PerformerTruth
-from jostle.synth.scene import Performance, PersonState
-from jostle.synth.session import SynthSensors, SynthSummary, record_performance
-from jostle.synth.truth import PersonTruth, TruthFrame, read_cameras, read_pad_layout, read_truth
+from jostle.performer.performer import PerformerSensor, PerformerTruth
+from jostle.performer.scene import Performance, PersonState
+from jostle.performer.session import SynthSensors, SynthSummary, record_performance
+from jostle.performer.truth import PersonTruth, TruthFrame, read_cameras, read_pad_layout, read_truth
 
 __all__ = [
     "DepthCameraConfig",

@@ -37,11 +37,11 @@ def _per_frame_ms(sensor: Any, clock: Any, start_s: float, frames: int) -> float
 def run(args: argparse.Namespace) -> dict[str, object]:
     import pybullet as pb
 
-    from jostle.synth.config import DepthCameraConfig, PerformerConfig
-    from jostle.synth.depth import PerformerDepth
-    from jostle.synth.pads import PerformerPads, default_pad_layout
-    from jostle.synth.performer import PerformerSensor
-    from jostle.synth.scene import Performance
+    from jostle.performer.config import DepthCameraConfig, PerformerConfig
+    from jostle.performer.depth import PerformerDepth
+    from jostle.performer.pads import PerformerPads, default_pad_layout
+    from jostle.performer.performer import PerformerSensor
+    from jostle.performer.scene import Performance
     from sensors.clock import SimClock
 
     w, h, n = args.width, args.height, args.frames

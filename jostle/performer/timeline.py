@@ -4,15 +4,15 @@ that time — never sleeping, never skipping — until ``duration_s`` is over (t
 
 A subclass says what it produces (:attr:`spec`) and makes sample k at performance time tau
 (:meth:`_payload`, a pure function of the config and k). Opening takes hold of the shared
-:class:`~jostle.synth.scene.Performance` (its puppets) and closing lets go of it.
+:class:`~jostle.performer.scene.Performance` (its puppets) and closing lets go of it.
 """
 
 from __future__ import annotations
 
 import time
 
-from jostle.synth.config import frame_count
-from jostle.synth.scene import Performance
+from jostle.performer.config import frame_count
+from jostle.performer.scene import Performance
 from sensors.base import Frame, Payload, SensorContext, SensorNotOpen, SensorSpec, SensorState, SensorStatus
 from sensors.clock import Clock
 

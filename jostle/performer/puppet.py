@@ -6,7 +6,7 @@ pybullet joint indices of ``humanoid/humanoid.urdf``: 0 root (fixed to the base)
 8 left_wrist (fixed), 9 right_hip, 10 right_knee, 11 right_ankle, 12 left_hip, 13 left_knee,
 14 left_ankle (the same on every body). Knees and elbows are revolute about z (one angle); the rest are spherical and take
 the clips' local quaternions (x y z w) as they are. The humanoid is drawn in the clothes of
-``jostle.synth.dress`` (same links, fuller shapes). The base carries no mass or offset, so the base
+``jostle.performer.dress`` (same links, fuller shapes). The base carries no mass or offset, so the base
 position is the root (pelvis) joint. The URDF lacks joint axes and pybullet says so on loading
 (harmless; those lines are kept off stdout).
 """
@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from jostle.synth.camera import PinholeCamera
-from jostle.synth.choreography import StagePose
-from jostle.synth.dress import PALETTES, dressed_urdf
+from jostle.performer.camera import PinholeCamera
+from jostle.performer.choreography import StagePose
+from jostle.performer.dress import PALETTES, dressed_urdf
 from sensors.base import SensorUnavailable
 from sim.motion.mocap import JOINTS, REVOLUTE, URDF_SCALE
 

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jostle.synth.choreography import Choreography, SegmentPath, scaled_clip
-from jostle.synth.config import PerformerConfig, load_clip
+from jostle.performer.choreography import Choreography, SegmentPath, scaled_clip
+from jostle.performer.config import PerformerConfig, load_clip
 from sim.motion.mocap import MotionClip
 
 MASS_AT_SCALE_1_KG = 70.0

@@ -1,9 +1,9 @@
 """Recording a performance: every chosen virtual sensor on one simulated clock, into one MCAP file.
 
-The sensors share one :class:`~jostle.synth.scene.Performance`, are opened at clock time 0 and
+The sensors share one :class:`~jostle.performer.scene.Performance`, are opened at clock time 0 and
 read as the clock steps at the fastest sensor's rate; each frame goes to its channel (a Recorder
 per sensor). With ``truth`` the ground-truth channel gets a message at the time of every camera
-frame (``jostle.synth.truth``), or with pads alone, of every n-th pad sample (about ``fps`` a second). The file is written as ``<out>.part`` and renamed when complete.
+frame (``jostle.performer.truth``), or with pads alone, of every n-th pad sample (about ``fps`` a second). The file is written as ``<out>.part`` and renamed when complete.
 """
 
 from __future__ import annotations
@@ -13,13 +13,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from jostle.synth.config import DepthCameraConfig, PerformerConfig
-from jostle.synth.depth import PerformerDepth
-from jostle.synth.pads import PadLayout, PerformerPads, pad_forces
-from jostle.synth.performer import PerformerSensor
-from jostle.synth.scene import Performance
-from jostle.synth.timeline import TimelineSensor
-from jostle.synth.truth import (
+from jostle.performer.config import DepthCameraConfig, PerformerConfig
+from jostle.performer.depth import PerformerDepth
+from jostle.performer.pads import PadLayout, PerformerPads, pad_forces
+from jostle.performer.performer import PerformerSensor
+from jostle.performer.scene import Performance
+from jostle.performer.timeline import TimelineSensor
+from jostle.performer.truth import (
     CAMERAS_KEY,
     PADS_KEY,
     TRUTH_SCHEMA,

@@ -15,12 +15,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from jostle.synth.camera import PinholeCamera
-from jostle.synth.cast import Person, build_cast
-from jostle.synth.choreography import StagePose, stage_joint_positions
-from jostle.synth.config import PerformerConfig
-from jostle.synth.puppet import HumanoidPuppet, PuppetImage
-from jostle.synth.room import RoomImage, render_room
+from jostle.performer.camera import PinholeCamera
+from jostle.performer.cast import Person, build_cast
+from jostle.performer.choreography import StagePose, stage_joint_positions
+from jostle.performer.config import PerformerConfig
+from jostle.performer.puppet import HumanoidPuppet, PuppetImage
+from jostle.performer.room import RoomImage, render_room
 from sensors.base import SensorNotOpen
 from sim.motion.mocap import HUMANOID
 
