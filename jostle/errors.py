@@ -11,7 +11,7 @@ def user_facing(e: BaseException) -> str | None:
 
     if isinstance(e, ConfigError | SensorError | MotionFileError):
         return str(e)
-    from jostle.cli import UsageError
+    from jostle.cli.main import UsageError
 
     if isinstance(e, UsageError):
         return str(e)

@@ -12,7 +12,7 @@ from jostle import bench_interaction
 
 
 def main_json(name: str, argv: list[str]) -> dict[str, Any]:
-    """As jostle.bench_cli.main_json, on the module directly (BENCHES may still name interaction.bench)."""
+    """As jostle.cli.bench.main_json, on the module directly (BENCHES may still name interaction.bench)."""
     import argparse
 
     assert name == "interaction"

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jostle.bench_cli import main_json
+from jostle.cli.bench import main_json
 from sensors.bench import DEPTH_SIZE, INTRINSICS, PADS, write_recording
 from sensors.recording_info import describe_recording, iter_frames
 

@@ -17,7 +17,7 @@ from typing import Any
 
 import pytest
 
-from jostle.service_unit import OPERATOR_EXIT
+from jostle.cli.service_unit import OPERATOR_EXIT
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -6,7 +6,7 @@ import argparse
 
 import numpy as np
 
-from jostle.bench_cli import BENCHES
+from jostle.cli.bench import BENCHES
 from sim.config import CharacterSpec, WorldConfig
 from sim.quadruped import bench
 from sim.quadruped.config import QuadrupedSpec

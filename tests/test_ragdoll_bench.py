@@ -7,8 +7,8 @@ from collections.abc import Generator
 
 import pytest
 
-from jostle.bench_cli import BENCHES, main_json
 from jostle.bench_ragdoll import EXCESS_WHEN, EXTRA_KEYS, KEYS, interleaved, walking_slices
+from jostle.cli.bench import BENCHES, main_json
 from jostle.ragdoll_baseline import baseline_slices
 from sim.articulated.spec import ArticulatedSpec
 

@@ -18,8 +18,8 @@ from interaction.shoe_model import (
 )
 from jostle.bench_interaction import _depth_calibration
 from jostle.bench_truth import part_centres
-from jostle.shoe_model_fit import BENCH_SEEDS, MATCH_M, parse_seeds, recording_rows
 from jostle.performer.truth import read_cameras, read_truth
+from jostle.shoe_model_fit import BENCH_SEEDS, MATCH_M, parse_seeds, recording_rows
 from sensors.base import DepthImage, Frame
 from sensors.recording_info import iter_payloads
 

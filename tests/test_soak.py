@@ -11,7 +11,7 @@ import pytest
 
 from interaction.types import BodyObservation
 from jostle import app as app_module
-from jostle.bench_cli import main_json
+from jostle.cli.bench import main_json
 from jostle.config import load_config
 from jostle.observers import Observer, ObserverType, observer_types
 from jostle.soak import FreeRunningClock, looped, rss_mb

@@ -17,7 +17,12 @@ def add_all(sub: Sub) -> None:
     _add_record(sub)
     _add_replay(sub)
     _add_info(sub)
-    from jostle import bench_cli, calibrate_cli, keyframes_cli, service_cli, synth_cli, tools_cli
+    from jostle.cli import bench as bench_cli
+    from jostle.cli import calibrate as calibrate_cli
+    from jostle.cli import keyframes as keyframes_cli
+    from jostle.cli import service as service_cli
+    from jostle.cli import synth as synth_cli
+    from jostle.cli import tools as tools_cli
 
     synth_cli.add(sub)
     keyframes_cli.add(sub)
@@ -79,14 +84,14 @@ def _execute(config_path: Path, args: argparse.Namespace, *, override_recording:
 
     config = load_config(config_path)
     if override_recording is not None:
-        from jostle.replay_config import replace_sensors_with_recording
+        from jostle.cli.replay_config import replace_sensors_with_recording
 
         config = replace_sensors_with_recording(config, override_recording)
     if args.mode != "headless":
         from render.draw import display_available
 
         if not display_available():
-            from jostle.cli import UsageError
+            from jostle.cli.main import UsageError
 
             raise UsageError(f"--{args.mode} needs a display (none found: DISPLAY is not set); use --headless")
     speed: Speed = args.speed or ("max" if args.mode == "headless" else "realtime")
@@ -113,7 +118,7 @@ def _execute(config_path: Path, args: argparse.Namespace, *, override_recording:
         print(f"jostle: video:   {summary.video}")
     print(f"jostle: summary: {out / 'summary.json'}")
     if app.operations.exit_requested:  # the operator's exit keys: systemd must not start it again
-        from jostle.service_cli import OPERATOR_EXIT
+        from jostle.cli.service import OPERATOR_EXIT
 
         return OPERATOR_EXIT
     return 0
@@ -202,6 +207,6 @@ def _add_record(sub: Sub) -> None:
 
 
 def cmd_record(args: argparse.Namespace) -> int:
-    from jostle.recording import record_config
+    from jostle.cli.record import record_config
 
     return record_config(args.config, args.out, duration=args.duration, force=args.force)

@@ -24,6 +24,6 @@ def add(sub: Any) -> None:
 
 
 def cmd_doctor(args: argparse.Namespace) -> int:
-    from jostle.doctor import print_checks, run_checks
+    from jostle.cli.doctor import print_checks, run_checks
 
     return print_checks(run_checks(timeout=args.timeout), args.json)

@@ -66,13 +66,13 @@ def _runner(name: str) -> Any:
     def run(args: argparse.Namespace) -> int:
         module = _module(name)
         if module is None:
-            from jostle.cli import UsageError
+            from jostle.cli.main import UsageError
 
             raise UsageError(f"bench {name}: not built yet ({BENCHES[name][0]} is missing)")
         try:
             figures: dict[str, Any] = module.run(args)
         except ValueError as e:  # a bad flag value: one line, like every other user error
-            from jostle.cli import UsageError
+            from jostle.cli.main import UsageError
 
             raise UsageError(f"bench {name}: {e}") from None
         if args.json:

@@ -72,7 +72,7 @@ def add(sub: Any) -> None:
 
 
 def _fail(message: str) -> Exception:
-    from jostle.cli import UsageError
+    from jostle.cli.main import UsageError
 
     return UsageError(message)
 
@@ -124,7 +124,7 @@ def collect(args: argparse.Namespace) -> list[Any]:
 
     run = Path(args.run)
     if run.suffix.lower() == ".mcap":
-        from jostle.replay_config import replace_sensors_with_recording
+        from jostle.cli.replay_config import replace_sensors_with_recording
 
         config = replace_sensors_with_recording(load_config(args.config), run)
     else:

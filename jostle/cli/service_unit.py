@@ -1,7 +1,7 @@
 """A systemd unit that keeps one installation running for weeks: ``Type=notify`` (the loop says READY
 and pings the watchdog only while frames flow), ``Restart=always``, ``WatchdogSec``/``RestartSec``
 from the config's ``[health]``, no limit on restarts, the display for a kiosk. Pure text; writing it
-is ``jostle service install`` (``jostle.service_cli``)."""
+is ``jostle service install`` (``jostle.cli.service``)."""
 
 from __future__ import annotations
 

@@ -37,7 +37,7 @@ class UsageError(Exception):
 
 
 def _parser() -> argparse.ArgumentParser:
-    from jostle import commands
+    from jostle.cli import run as commands
 
     p = argparse.ArgumentParser(
         prog="jostle",
@@ -49,8 +49,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--debug", action="store_true", help="show full tracebacks and debug logging")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     commands.add_all(sub)
-    __import__("jostle.ragdoll_cli", fromlist=["add"]).add(sub)  # jostle ragdoll (articulated characters)
-    __import__("jostle.terrain_cli", fromlist=["add"]).add(sub)  # jostle terrain (cube layouts)
+    __import__("jostle.cli.ragdoll", fromlist=["add"]).add(sub)  # jostle ragdoll (articulated characters)
+    __import__("jostle.cli.terrain", fromlist=["add"]).add(sub)  # jostle terrain (cube layouts)
     return p
 
 
@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.DEBUG if args.debug else logging.INFO,
         format="jostle: %(levelname)s: %(message)s" if not args.debug else "%(asctime)s %(name)s %(levelname)s %(message)s",
     )
-    from jostle.journal import adopt_journal, prefix
+    from jostle.cli.journal import adopt_journal, prefix
 
     adopt_journal()  # under systemd: one `<priority>key=value` line per record, for the journal
     from jostle.errors import user_facing
@@ -103,7 +103,7 @@ def _one_line_warning(
     line: str | None = None,
 ) -> None:
     """Warnings (a damaged recording, a missing keyframe behaviour) as one line for the user."""
-    from jostle.journal import prefix
+    from jostle.cli.journal import prefix
 
     print(f"{prefix(logging.WARNING)}jostle: warning: {message}", file=sys.stderr)
 
