@@ -8,14 +8,14 @@ corrects each foot by the mean correction of the ``k`` feet most like it (neares
 :func:`column_features` scaled to unit spread) among feet of virtual performers whose true middles are
 known: along the camera's view, across it, and up. The model is those feet's features and corrections
 (``interaction/data/shoe_model.npz``, made by ``jostle synth shoe-model``: performer recordings with
-truth, ``jostle.shoe_model_fit``); nothing is learnt at run time.
+truth, ``jostle.bench.shoe_model_fit``); nothing is learnt at run time.
 
 It knows the virtual performer's shoe (a 26 × 10 × 8 cm box), its gait (two mocap clips) and its depth
 camera's noise, not a real shoe: on real people it can only be as right as those are like theirs. It looks
 at one frame's column only (no motion), so it cannot recognise where in a clip a foot is: its p50 moves
 from 2.1 to 1.6 cm, not to the millimetres a model that learnt the clips would show. Measured on the virtual
 performer (``jostle bench interaction``, seeds 0, 100 and 200, never in the model's recordings): see
-``jostle.shoe_model_fit``.
+``jostle.bench.shoe_model_fit``.
 """
 
 from __future__ import annotations

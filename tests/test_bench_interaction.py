@@ -1,4 +1,4 @@
-"""``jostle bench interaction --quick`` (jostle.bench_interaction): records, observes, scores; figures sane."""
+"""``jostle bench interaction --quick`` (jostle.bench.interaction): records, observes, scores; figures sane."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from jostle import bench_interaction
+from jostle.bench import interaction as bench_interaction
 
 
 def main_json(name: str, argv: list[str]) -> dict[str, Any]:

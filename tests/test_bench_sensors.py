@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from jostle.bench.sensors import DEPTH_SIZE, INTRINSICS, PADS, write_recording
 from jostle.cli.bench import main_json
-from sensors.bench import DEPTH_SIZE, INTRINSICS, PADS, write_recording
 from sensors.recording_info import describe_recording, iter_frames
 
 KEYS = {"fuzz_bytes", "crashes", "bad_frames_accepted", "pad_frames_per_s", "replay_speed"}

@@ -13,7 +13,7 @@ from interaction.depth_calibration import DepthCalibration
 from interaction.depth_parts import FLOOR_CUT_M, FineDepth, find_feet
 from interaction.limb_tracks import LimbTracker
 from interaction.shoe_fit import HANGING_FROM_M, SHOE_HEIGHT_M, lies_flat, shoe_middle_height
-from jostle.bench_truth import sampled_truth_angles
+from jostle.bench.truth import sampled_truth_angles
 from jostle.performer.truth import PersonTruth, TruthFrame
 from sensors.base import DepthImage
 from sim.motion.mocap import HUMANOID

@@ -12,7 +12,7 @@ import pytest
 from interaction.depth import DepthObserver, DepthObserverConfig
 from interaction.depth_calibration import DepthCalibration, calibrate_depth, fit_floor
 from interaction.types import BodyObservation
-from jostle.bench_truth import visible_people
+from jostle.bench.truth import visible_people
 from jostle.performer.truth import TruthFrame, read_cameras, read_truth
 from sensors.base import ColorImage, DepthImage, Frame
 from sensors.recording_info import iter_payloads

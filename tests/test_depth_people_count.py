@@ -12,8 +12,8 @@ import pytest
 from interaction.depth import DepthObserver, DepthObserverConfig
 from interaction.hidden_people import CONFIRM_FRAMES, HiddenPeople
 from interaction.people import split_side_by_side
-from jostle.bench_interaction import _depth_calibration
-from jostle.bench_truth import visible_people
+from jostle.bench.interaction import _depth_calibration
+from jostle.bench.truth import visible_people
 from jostle.performer.config import DepthCameraConfig, PerformerConfig
 from jostle.performer.session import SynthSensors, record_performance
 from jostle.performer.truth import read_cameras, read_truth

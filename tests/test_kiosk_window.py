@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 CHILD = r"""
 import json, sys, time
-from render.bench import scene
+from jostle.bench.render import scene
 from render.draw import Renderer
 from render.keyframes import KeyframeSet
 

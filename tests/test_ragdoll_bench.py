@@ -7,9 +7,9 @@ from collections.abc import Generator
 
 import pytest
 
-from jostle.bench_ragdoll import EXCESS_WHEN, EXTRA_KEYS, KEYS, interleaved, walking_slices
+from jostle.bench.ragdoll import EXCESS_WHEN, EXTRA_KEYS, KEYS, interleaved, walking_slices
+from jostle.bench.ragdoll_baseline import baseline_slices
 from jostle.cli.bench import BENCHES, main_json
-from jostle.ragdoll_baseline import baseline_slices
 from sim.articulated.spec import ArticulatedSpec
 
 
@@ -101,7 +101,7 @@ class _Seen:
 
 
 def test_the_excess_is_split_by_when_it_happened() -> None:
-    from jostle.bench_ragdoll import _Worst
+    from jostle.bench.ragdoll import _Worst
 
     worst = _Worst()
     worst.see([_Seen("walk", 0.01)])  # walking up to a push

@@ -14,7 +14,7 @@ import pytest
 SCRIPT = r"""
 import sys, numpy as np
 from pyglet import gl
-from render.bench import scene
+from jostle.bench.render import scene
 from render.draw import Renderer
 from render.keyframes import KeyframeSet
 

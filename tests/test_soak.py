@@ -11,10 +11,10 @@ import pytest
 
 from interaction.types import BodyObservation
 from jostle import app as app_module
+from jostle.bench.soak import FreeRunningClock, looped, rss_mb
 from jostle.cli.bench import main_json
 from jostle.config import load_config
 from jostle.observers import Observer, ObserverType, observer_types
-from jostle.soak import FreeRunningClock, looped, rss_mb
 from sensors.base import Frame
 from sensors.replay import ReplayConfig
 

@@ -183,7 +183,7 @@ def test_virtual_performer_hands_and_feet_on_the_stage_plane(crossing: Path) -> 
     """Two people crossing, 640×480: each hand/foot contactor against the nearest true hand (the hand
     sphere) or foot (the shoe's middle), carried onto the webcam's plane, as ``jostle bench interaction``
     scores it; and the share of true hands and feet in view that have a contactor within 10 cm."""
-    from jostle.bench_truth import body_part_centres
+    from jostle.bench.truth import body_part_centres
     from jostle.performer.camera import apply_homography
     from jostle.performer.truth import read_cameras, read_truth
     from sensors.recording_info import iter_payloads

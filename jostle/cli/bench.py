@@ -20,16 +20,16 @@ RAW = argparse.RawDescriptionHelpFormatter
 
 # name → (module, one-line description). A module that does not exist yet is listed as unavailable.
 BENCHES: dict[str, tuple[str, str]] = {
-    "pipeline": ("jostle.bench_pipeline", "the demo's cost per stage: decode, observe, simulate, draw"),
-    "sim": ("sim.bench", "N characters with controller and AI against N bare bodies, same run"),
-    "identify": ("jostle.bench_identify", "the paper's observer experiment (§6.2) done by machine, on the drawn figure"),
-    "render": ("render.bench", "headless frame rate and pose evaluation cost for N characters"),
-    "sensors": ("sensors.bench", "pad parser fuzz and rate, recording replay speed"),
-    "interaction": ("jostle.bench_interaction", "observers against virtual-performer ground truth"),
-    "synth": ("jostle.performer.bench", "virtual performer: ms per frame of webcam, OAK depth (+colour) and pads"),
-    "soak": ("jostle.soak", "the demo looped headless for minutes: memory and frame-rate drift"),
-    "ragdoll": ("jostle.bench_ragdoll", "articulated characters: cost vs DeepMimic stable PD, tracking, pushes, get-ups"),
-    "quadruped": ("sim.quadruped.bench", "quadruped on generated cube terrains: goals, feet, replan time, fps"),
+    "pipeline": ("jostle.bench.pipeline", "the demo's cost per stage: decode, observe, simulate, draw"),
+    "sim": ("jostle.bench.sim", "N characters with controller and AI against N bare bodies, same run"),
+    "identify": ("jostle.bench.identify", "the paper's observer experiment (§6.2) done by machine, on the drawn figure"),
+    "render": ("jostle.bench.render", "headless frame rate and pose evaluation cost for N characters"),
+    "sensors": ("jostle.bench.sensors", "pad parser fuzz and rate, recording replay speed"),
+    "interaction": ("jostle.bench.interaction", "observers against virtual-performer ground truth"),
+    "synth": ("jostle.bench.performer", "virtual performer: ms per frame of webcam, OAK depth (+colour) and pads"),
+    "soak": ("jostle.bench.soak", "the demo looped headless for minutes: memory and frame-rate drift"),
+    "ragdoll": ("jostle.bench.ragdoll", "articulated characters: cost vs DeepMimic stable PD, tracking, pushes, get-ups"),
+    "quadruped": ("jostle.bench.quadruped", "quadruped on generated cube terrains: goals, feet, replan time, fps"),
 }
 
 

@@ -104,9 +104,9 @@ def add(sub: Any) -> None:
 
 def cmd_synth_shoe_model(args: argparse.Namespace) -> int:
     from interaction.shoe_model import default_model_path
+    from jostle.bench.shoe_model_fit import check_k, fit, parse_seeds
     from jostle.cli.main import UsageError
     from jostle.progress import Progress
-    from jostle.shoe_model_fit import check_k, fit, parse_seeds
 
     try:
         seeds = parse_seeds(args.seeds)

@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from jostle.ragdoll_baseline import BenchSim, baseline_slices, log
+from jostle.bench.ragdoll_baseline import BenchSim, baseline_slices, log
 
 KEYS = ("characters", "physics_hz", "realtime_factor", "cost_ratio_vs_baseline", "tracking_error_deg",
         "max_survived_forward_n", "max_survived_side_n", "getup_success", "external_assist_n")

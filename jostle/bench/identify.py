@@ -1,6 +1,6 @@
 """``jostle bench identify``: the observer experiment, watching the *drawn* character.
 
-The experiment and the observer are ``sim.bench_identify``'s; this module (jostle may import render)
+The experiment and the observer are ``jostle.bench.identify_experiment``'s; this module (jostle may import render)
 gives the observer what a viewer of the installation sees: the joint positions of the figure the
 keyframe set draws for each snapshot — the correspondence function ``render.keyframes
 .query_from_snapshot``, the set's pose, forward kinematics of ``sim.motion.mocap.HUMANOID``, scaled to the
@@ -15,15 +15,15 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from sim import bench_identify
+from jostle.bench import identify_experiment as bench_identify
 
 if TYPE_CHECKING:
     import numpy as np
 
+    from jostle.bench.identify_experiment import Trial
     from render.keyframes import KeyframeSet
-    from sim.bench_identify import Trial
 
-DEFAULT_SET = Path(__file__).resolve().parent.parent / "configs" / "keyframes" / "humanoid" / "keyframes.toml"
+DEFAULT_SET = Path(__file__).resolve().parents[2] / "configs" / "keyframes" / "humanoid" / "keyframes.toml"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def pose_view(keyframes: KeyframeSet) -> Any:
-    """A ``sim.bench_identify.View``: the drawn figure's joint positions (T, joints, 3), no angles."""
+    """A ``jostle.bench.identify_experiment.View``: the drawn figure's joint positions (T, joints, 3), no angles."""
     import math
 
     import numpy as np

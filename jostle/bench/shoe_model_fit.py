@@ -4,7 +4,7 @@ For each seed, the recordings ``jostle bench interaction`` makes for that seed (
 stage, walking and punching, 15 fps, 5 s; performer seeds seed + 1 … seed + 4) are made again; the depth
 observer runs over each with the shoe rules alone (``shoe_model = false``), and every foot it finds
 (:func:`interaction.depth_parts.find_feet`'s ``shoe_rows``) within ``MATCH_M`` of a true foot's middle
-(:mod:`jostle.bench_truth`) gives one row: its features (:func:`interaction.shoe_model.column_features`)
+(:mod:`jostle.bench.truth`) gives one row: its features (:func:`interaction.shoe_model.column_features`)
 and the correction that would have put it there, along the camera's view, across it and up. The rows of
 all seeds, in seed order, are the model (:meth:`interaction.shoe_model.ShoeModel.save`); the same seeds
 make the same model (the same arrays).
@@ -46,7 +46,7 @@ def seed_rows(seed: int, folder: Path, duration: float = 5.0, fps: float = 15.0,
               people: tuple[int, ...] = (1, 2, 3, 4)) -> tuple[np.ndarray, np.ndarray]:
     """(features (N, FEATURES), corrections (N, 3)) of the feet found in one seed's recordings."""
     from interaction.shoe_model import FEATURES
-    from jostle.bench_interaction import _record
+    from jostle.bench.interaction import _record
 
     features: list[np.ndarray] = []
     corrections: list[np.ndarray] = []
@@ -65,8 +65,8 @@ def recording_rows(path: Path) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """The rows of one recording with truth (channels oak and truth)."""
     from interaction.depth import DepthObserver, DepthObserverConfig
     from interaction.shoe_model import view_frame
-    from jostle.bench_interaction import _depth_calibration
-    from jostle.bench_truth import part_centres
+    from jostle.bench.interaction import _depth_calibration
+    from jostle.bench.truth import part_centres
     from jostle.performer.truth import read_cameras, read_truth
     from sensors.base import DepthImage, Frame
     from sensors.recording_info import iter_payloads

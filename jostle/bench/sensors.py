@@ -3,7 +3,7 @@
 Figures (``--json``):
 
 - ``fuzz_bytes``, ``crashes``, ``bad_frames_accepted``, ``pad_frames_per_s``: from
-  :func:`sensors.bench_pads.fuzz_parser` (binary framing, 8 pads): random and corrupted bytes fed
+  :func:`jostle.bench.pad_fuzz.fuzz_parser` (binary framing, 8 pads): random and corrupted bytes fed
   to the parser in random chunks, and the decode rate of a clean stream. Targets: 0, 0, ≥ 50,000/s.
 - ``replay_speed``: a recording of depth (640×400 uint16, a room with a moving person and sensor
   noise, with intrinsics), colour (640×480, JPEG) at ``--fps`` and 8 force pads at 100 Hz, written
@@ -184,7 +184,7 @@ def jpeg_decode_ms(seed: int, repeats: int = 50) -> float:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from sensors.bench_pads import fuzz_parser
+    from jostle.bench.pad_fuzz import fuzz_parser
 
     if args.fuzz_bytes <= 0:
         raise ValueError(f"--fuzz-bytes: expected bytes > 0, got {args.fuzz_bytes}")

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 _SAMPLE_EVERY_S = 0.5
-_DEMO = Path(__file__).resolve().parent.parent / "configs" / "demo.toml"
+_DEMO = Path(__file__).resolve().parents[2] / "configs" / "demo.toml"
 _MAX_MESSAGES = 5
 
 
@@ -230,7 +230,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             summary = app.run()
             stopped = summary.stopped_because
         except Exception as e:  # the soak reports it; the figures up to here still count
-            logging.getLogger("jostle.soak").debug("the run ended with an exception", exc_info=True)
+            logging.getLogger("jostle.bench.soak").debug("the run ended with an exception", exc_info=True)
             exceptions.append(f"{type(e).__name__}: {e}".splitlines()[0][:300])
             summary = app.summary
             stopped = f"exception: {exceptions[-1]}"

@@ -60,9 +60,9 @@ def generate(heights: np.ndarray, rng: np.random.Generator, blocks: int, walls: 
 
 
 def measure(terrains: int, walk_size: int, replan_size: int, replans: int, seed: int) -> dict[str, Any]:
+    from jostle.bench.quadruped_trial import Trial
     from sim.quadruped.grid import TerrainConfig
     from sim.quadruped.planner import PlanStatus
-    from sim.quadruped.trial import Trial
 
     rng = np.random.default_rng(seed)
     cfg = TerrainConfig(cell=0.3, nx=walk_size, ny=walk_size, origin=(0.0, 0.0), max_height=3)

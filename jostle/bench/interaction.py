@@ -36,7 +36,7 @@ every frame, fuses them, and scores against the truth:
   ``velocity_direction_error_deg_p95_best_linear``: the same angle for the best weighting of the last
   four exact centres, fitted to the true velocities themselves: no tracker that only combines positions
   does better at this frame rate, even without noise (15 fps: ≈ 47°, 30 fps: ≈ 32°, 60 fps: ≈ 17°).
-  (Where the hands and feet really are, and both references: :mod:`jostle.bench_truth`.)
+  (Where the hands and feet really are, and both references: :mod:`jostle.bench.truth`.)
 - ``person_count_accuracy``: depth frames (after learning) whose count of people is the count of
   people whose pelvis is inside the depth camera's view; frames with someone within 0.4 m of the
   view's edge are ambiguous and not counted (``person_count_frames`` says how many were).
@@ -53,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from jostle.bench_truth import (
+from jostle.bench.truth import (
     MOVING_M_S,
     SAME_PART_M,
     LinearCeiling,

@@ -1,5 +1,5 @@
 """The pybullet client ``jostle bench ragdoll`` runs on, and its baseline: pybullet's own DeepMimic humanoid
-tracking the walk clip with ``STABLE_PD_CONTROL`` (see :mod:`jostle.bench_ragdoll`)."""
+tracking the walk clip with ``STABLE_PD_CONTROL`` (see :mod:`jostle.bench.ragdoll`)."""
 
 from __future__ import annotations
 

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-DEFAULT_SET = Path(__file__).resolve().parent.parent / "configs" / "keyframes" / "humanoid" / "keyframes.toml"
+DEFAULT_SET = Path(__file__).resolve().parents[2] / "configs" / "keyframes" / "humanoid" / "keyframes.toml"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
