@@ -12,7 +12,7 @@ from jostle.bench import interaction as bench_interaction
 
 
 def main_json(name: str, argv: list[str]) -> dict[str, Any]:
-    """As jostle.cli.bench.main_json, on the module directly (BENCHES may still name interaction.bench)."""
+    """As jostle.cli.bench.main_json, on the module directly (the table names jostle.bench.interaction)."""
     import argparse
 
     assert name == "interaction"

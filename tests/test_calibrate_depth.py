@@ -90,7 +90,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def test_cli_headless_from_a_recording(tmp_path: Path) -> None:
-    from jostle.cli.main import UsageError
+    from jostle.errors import UsageError
 
     config = tmp_path / "install.toml"
     config.write_text("# not read\n")

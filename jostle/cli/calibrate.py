@@ -93,7 +93,7 @@ def _board_flags(p: argparse.ArgumentParser) -> None:
 
 
 def _usage(message: str) -> Exception:
-    from jostle.cli.main import UsageError
+    from jostle.errors import UsageError
 
     return UsageError(message)
 

@@ -147,13 +147,13 @@ def _floats(text: str | None, what: str) -> list[float] | None:
     try:
         return [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        from jostle.cli.main import UsageError
+        from jostle.errors import UsageError
 
         raise UsageError(f"--{what}: expected numbers separated by commas, got {text!r}") from None
 
 
 def _at(text: str) -> dict[str, float | str]:
-    from jostle.cli.main import UsageError
+    from jostle.errors import UsageError
 
     out: dict[str, float | str] = {}
     for part in filter(None, (p.strip() for p in text.split(","))):

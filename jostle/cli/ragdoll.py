@@ -72,7 +72,7 @@ def add(sub: Any) -> None:
 
 
 def _fail(message: str) -> Exception:
-    from jostle.cli.main import UsageError
+    from jostle.errors import UsageError
 
     return UsageError(message)
 

@@ -14,7 +14,7 @@ from sensors.registry import SENSOR_TYPES
 
 
 def record_config(config_path: Path, out: Path, *, duration: float | None, force: bool = False) -> int:
-    from jostle.cli.main import UsageError
+    from jostle.errors import UsageError
     from sensors.replay import ReplayConfig
 
     config = load_config(config_path)

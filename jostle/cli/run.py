@@ -1,4 +1,4 @@
-"""The subcommands of ``jostle``: each adds its parser and names the function that runs it."""
+"""``jostle run``, ``replay``, ``info`` and ``record``: each adds its parser and names the function that runs it."""
 
 from __future__ import annotations
 
@@ -10,26 +10,6 @@ from typing import Any
 Sub = Any  # argparse's _SubParsersAction is private
 
 RAW = argparse.RawDescriptionHelpFormatter
-
-
-def add_all(sub: Sub) -> None:
-    _add_run(sub)
-    _add_record(sub)
-    _add_replay(sub)
-    _add_info(sub)
-    from jostle.cli import bench as bench_cli
-    from jostle.cli import calibrate as calibrate_cli
-    from jostle.cli import keyframes as keyframes_cli
-    from jostle.cli import service as service_cli
-    from jostle.cli import synth as synth_cli
-    from jostle.cli import tools as tools_cli
-
-    synth_cli.add(sub)
-    keyframes_cli.add(sub)
-    calibrate_cli.add(sub)
-    tools_cli.add(sub)
-    bench_cli.add(sub)
-    service_cli.add(sub)
 
 
 # ------------------------------------------------------------------------------------------ run
@@ -60,7 +40,7 @@ def _run_flags(p: argparse.ArgumentParser, default_out: str) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def _add_run(sub: Sub) -> None:
+def add_run(sub: Sub) -> None:
     p = sub.add_parser(
         "run",
         help="run an installation config (live sensors or recordings)",
@@ -91,7 +71,7 @@ def _execute(config_path: Path, args: argparse.Namespace, *, override_recording:
         from render.draw import display_available
 
         if not display_available():
-            from jostle.cli.main import UsageError
+            from jostle.errors import UsageError
 
             raise UsageError(f"--{args.mode} needs a display (none found: DISPLAY is not set); use --headless")
     speed: Speed = args.speed or ("max" if args.mode == "headless" else "realtime")
@@ -131,7 +111,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------------- replay
 
 
-def _add_replay(sub: Sub) -> None:
+def add_replay(sub: Sub) -> None:
     p = sub.add_parser(
         "replay",
         help="run a recorded session again through an installation config",
@@ -156,7 +136,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------------------------------- info
 
 
-def _add_info(sub: Sub) -> None:
+def add_info(sub: Sub) -> None:
     p = sub.add_parser(
         "info",
         help="summarise a recording: channels, message counts, duration",
@@ -187,7 +167,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------------- record
 
 
-def _add_record(sub: Sub) -> None:
+def add_record(sub: Sub) -> None:
     p = sub.add_parser(
         "record",
         help="record the sensors of a config into an MCAP file",

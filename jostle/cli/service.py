@@ -75,7 +75,7 @@ def _jostle_command() -> Path:
     here = Path(os.path.abspath(sys.executable)).parent  # not resolved: a venv's python is a symlink
     found = here / "jostle"
     if not found.exists():
-        from jostle.cli.main import UsageError
+        from jostle.errors import UsageError
 
         raise UsageError(f"{found}: no jostle command beside {sys.executable}; install jostle into this "
                          "environment (make setup, or pip install -e .)")
@@ -108,7 +108,7 @@ def cmd_install(args: argparse.Namespace) -> int:
         print(text, end="")
     else:
         if target.exists() and not args.force and target.read_text() != text:
-            from jostle.cli.main import UsageError
+            from jostle.errors import UsageError
 
             raise UsageError(f"{target}: a unit of that name exists; use --force to replace it (or --name)")
         unit_dir.mkdir(parents=True, exist_ok=True)
@@ -134,7 +134,7 @@ def cmd_uninstall(args: argparse.Namespace) -> int:
     target = unit_dir / name
     links = [p for p in unit_dir.glob(f"*.wants/{name}") if p.is_symlink() or p.exists()]
     if not target.exists() and not links:
-        from jostle.cli.main import UsageError
+        from jostle.errors import UsageError
 
         raise UsageError(f"{target}: no such unit (installed with --user? see --unit-dir)")
     short = name.removesuffix(".service")

@@ -105,7 +105,7 @@ def add(sub: Any) -> None:
 def cmd_synth_shoe_model(args: argparse.Namespace) -> int:
     from interaction.shoe_model import default_model_path
     from jostle.bench.shoe_model_fit import check_k, fit, parse_seeds
-    from jostle.cli.main import UsageError
+    from jostle.errors import UsageError
     from jostle.progress import Progress
 
     try:
@@ -138,7 +138,7 @@ def cmd_synth_shoe_model(args: argparse.Namespace) -> int:
 
 
 def _size(option: str, text: str) -> tuple[int, int]:
-    from jostle.cli.main import UsageError
+    from jostle.errors import UsageError
 
     try:
         w, h = (int(v) for v in text.lower().split("x"))
@@ -148,7 +148,7 @@ def _size(option: str, text: str) -> tuple[int, int]:
 
 
 def _performer_changes(args: argparse.Namespace) -> dict[str, Any]:
-    from jostle.cli.main import UsageError
+    from jostle.errors import UsageError
 
     changes: dict[str, Any] = {"seed": args.seed}
     if args.clip:
@@ -178,7 +178,7 @@ def cmd_synth_performer(args: argparse.Namespace) -> int:
     import dataclasses
 
     from interaction.calibration import Calibration
-    from jostle.cli.main import UsageError
+    from jostle.errors import UsageError
     from jostle.performer.config import DepthCameraConfig, PerformerConfig
     from jostle.performer.pads import default_pad_layout, load_pad_layout
     from jostle.performer.session import SynthSensors, record_performance

@@ -1,4 +1,5 @@
-"""The ``jostle`` command. Every subcommand's ``--help`` says what it does and shows an example."""
+"""The ``jostle`` command: its table of subcommands and ``main``. Every subcommand's ``--help`` says
+what it does and shows an example."""
 
 from __future__ import annotations
 
@@ -7,9 +8,11 @@ import logging
 import sys
 import traceback
 import warnings
-from typing import TextIO
+from collections.abc import Callable
+from typing import Any, TextIO
 
 from jostle import __version__
+from jostle.cli import bench, calibrate, keyframes, ragdoll, run, service, synth, terrain, tools
 
 DESCRIPTION = """\
 jostle: people in front of sensors push, hit and shove on-screen characters, and the characters
@@ -32,13 +35,25 @@ Run 'jostle COMMAND --help' for each command's options.
 """
 
 
-class UsageError(Exception):
-    """A mistake on the command line or in a file it names; printed as one line, exit status 2."""
+# The one table of subcommands, in the order ``jostle --help`` lists them. Each adds its parser and
+# names the function that runs it.
+COMMANDS: tuple[Callable[[Any], None], ...] = (
+    run.add_run,
+    run.add_record,
+    run.add_replay,
+    run.add_info,
+    synth.add,
+    keyframes.add,
+    calibrate.add,
+    tools.add,
+    bench.add,
+    service.add,
+    ragdoll.add,  # jostle ragdoll (articulated characters)
+    terrain.add,  # jostle terrain (cube layouts)
+)
 
 
 def _parser() -> argparse.ArgumentParser:
-    from jostle.cli import run as commands
-
     p = argparse.ArgumentParser(
         prog="jostle",
         description=DESCRIPTION,
@@ -48,9 +63,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"jostle {__version__}")
     p.add_argument("--debug", action="store_true", help="show full tracebacks and debug logging")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    commands.add_all(sub)
-    __import__("jostle.cli.ragdoll", fromlist=["add"]).add(sub)  # jostle ragdoll (articulated characters)
-    __import__("jostle.cli.terrain", fromlist=["add"]).add(sub)  # jostle terrain (cube layouts)
+    for add in COMMANDS:
+        add(sub)
     return p
 
 
