@@ -12,23 +12,7 @@ only the frames can know). :class:`LinearCeiling` goes one step further: the bes
 combines the last few exact positions linearly could claim (an optimistic bound: no depth noise, and its
 weights fitted to the very velocities it is scored against).
 
-Those ceilings are the people's motion, not an artefact of how the performer plays its clips (slerp between
-mocap frames, whose velocity jumps at every frame): with the clips sampled by a C¹ curve instead (Catmull-Rom
-on the rotations and the root), measured at 15 fps, seed 0, the sampled-truth p95 is 49.0° (47.0° as played)
-and the best linear one 51.2° (47.5°).
-
-A learnt predictor does get under the ceiling, and shows why it must not be shipped: the mean true direction
-of the 5 nearest among 20 other seeds' parts, looked up by the exact last three steps (and the height, hand
-or foot), is off by p95 11–13° on seeds 0, 100 and 200, but by p50 0.7° — it recognises where in the two
-mocap clips (walk, punch) every performer plays the part is, which a real person's motion does not repeat.
-Learnt from other motions it does worse than the frame step: the same look-up (k 5 / 20 / 50, the steps turned
-to the newest one's heading and scaled by its length) over 118k parts of performers running and kicking,
-dancing, jumping, spinning and cartwheeling (pybullet_data's other DeepMimic clips; no walk, no punch), scored
-on the exact centres of the bench's walk-and-punch performers (seeds 0, 100, 200; 1–4 people, 12 s): p95
-58.4 / 54.9 / 52.7°, against 49.4° for the newest frame step; a linear weighting fitted there, 49.4°.
-Nor does a faster camera lift the bench over its noise (``jostle bench interaction --fps 60``, seed 0, 1 and 2
-people): p95 34.9°, with the sampled truth at 17.1° and the best linear one at 15.3°: at 60 fps a hand moves
-1–3 cm a frame, no more than where a hand is found wanders (p50 1.4 cm).
+What was tried to get under those ceilings, with the figures: docs/notes/bench-truth.md.
 """
 
 from __future__ import annotations
