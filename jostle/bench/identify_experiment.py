@@ -1,24 +1,19 @@
-"""``jostle bench identify``: the paper's observer experiment (Mitake et al. 2009 §6.2) done by machine.
+"""The observer experiment of ``jostle bench identify`` (Mitake et al. 2009 §6.2) done by machine.
 
-Forces (Figure 9 of the paper): a walking character is pushed once, for ``PUSH_S``, at the point of its
-figure at azimuth θpos ∈ {−45°, 0°, 45°} from its front (positive toward its left) and height
-h ∈ {0, 0.5, 1.0} m above the floor, in the direction pointing at its vertical axis turned by
-θdir ∈ {−45°, 0°, 45°}, weak or strong. Every cell of that grid is repeated with a random walking speed,
-heading and walking phase (time of the push). The pushes act on the figure's outline
-(``sim.body.figure_point``): at h = 0 that is the feet, spread like the drawn legs.
+Forces (Figure 9 of the paper): a walking character is pushed once, for ``PUSH_S``, at azimuth
+θpos ∈ {−45°, 0°, 45°} and height h ∈ {0, 0.5, 1.0} m of its figure's outline
+(``sim.body.figure_point``), in the direction of its vertical axis turned by θdir ∈ {−45°, 0°, 45°},
+weak or strong; every cell is repeated with a random walking speed, heading and phase.
 
-What is recorded is only what a viewer sees: the drawn character, sampled at 30 Hz from
-``BEFORE_S`` before the push (the viewer saw it walking) to ``AFTER_S`` after, in the character's
-heading frame at the push. ``body_view`` gives the rigid body's position and orientation (yaw, θx, θz);
-a composing module may pass the keyframed pose's joint positions instead (``score(view=...)``).
-The viewer's eye adds independent Gaussian noise to every position (2 cm) and angle (2°) of every
-sample. Never the force, never controller internals.
+What is recorded is only what a viewer sees, sampled at 30 Hz from ``BEFORE_S`` before the push to
+``AFTER_S`` after, in the heading frame at the push: ``body_view`` gives the rigid body's position and
+orientation; :mod:`jostle.bench.identify` passes the drawn figure's joint positions instead. The
+viewer's eye adds Gaussian noise to every position (m) and angle (rad).
 
-The observer: each channel is averaged over windows of ``WINDOW`` samples, the windows of all channels
-are standardised and a linear discriminant (nearest class mean under the pooled covariance, shrunk
-toward its diagonal; shrinkage picked by cross-validation on the training half) is fitted on the
-joint label (θpos, θdir, h, strength) of half the repetitions and tested on the other half. Each
-factor's answer is read off the joint answer; |θdir+θpos| is scored as in the paper's Table 1.
+The observer: windowed channel means, standardised, and a shrunk linear discriminant fitted on the
+joint label (θpos, θdir, h, strength) of half the repetitions and tested on the other half; each
+factor's answer is read off the joint one, |θdir+θpos| scored as in the paper's Table 1. ``add_arguments``
+holds the flags of ``jostle bench identify``; ``run`` scores the body view alone. In full: docs/benches.md.
 """
 
 from __future__ import annotations

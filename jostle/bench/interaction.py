@@ -1,45 +1,18 @@
 """``jostle bench interaction``: the observers against virtual-performer ground truth.
 
-(It lives in jostle/ because it records with :mod:`jostle.performer`; interaction/ may not import it.)
+Records crossings of 1 to 4 people (:mod:`jostle.performer`: webcam, OAK depth and ground truth; 15 fps
+unless ``--fps`` says otherwise) into a temporary folder, calibrates the depth camera from its own
+empty-stage frames, runs the webcam and depth observers over every frame, fuses them and scores
+against the truth (where hands and feet really are: :mod:`jostle.bench.truth`):
 
-Records crossings of 1 to 4 people (``jostle.performer``: webcam 640×480, OAK depth 640×400, ground
-truth; 15 fps unless ``--fps`` says otherwise) into a temporary folder, calibrates the depth camera from its own empty-stage frames
-(floor by RANSAC, the camera's foot point as the user would give it), runs the webcam observer
-(silhouette and flow; then with pose on the one-person recording) and the depth observer over
-every frame, fuses them, and scores against the truth:
+- ``*_fps``, ``latency_ms_p99``, ``page_faults_per_frame_*``: the cost of ``observe()`` and the fusion;
+- ``depth_extremity_error_m_p95`` / ``webcam_extremity_error_m_p95`` (metres) and their
+  ``*_found_share``: hand and foot contactors against the true hands and feet;
+- ``velocity_direction_error_deg_p95`` (degrees) and its references ``_sampled_truth``,
+  ``_vs_frame_step`` and ``_best_linear``: what the frame rate allows, and the tracker's own error;
+- ``person_count_accuracy``: depth frames whose count of people is right.
 
-- ``*_fps``: frames per second of ``observe()`` alone (decoding excluded), OpenCV on one thread.
-- ``latency_ms_p99``: frame in → contactors out (``observe`` plus the fusion), over all frames.
-  ``page_faults_per_frame_p99`` (and ``_mean``): the process's minor page faults over the same span and
-  frames, a figure the machine's load does not change (memory a frame takes fresh from the system).
-- ``depth_extremity_error_m_p95``: each depth hand (foot) contactor to the nearest true hand (foot)
-  of anyone on the stage, metres. Like is compared with like: a hand contactor with the middle of the
-  performer's hand (the sphere 2 cm beyond the wrist), a foot with the middle of the shoe (not the
-  wrist or the ankle joint). ``depth_extremity_found_share``: the share of all true hands and feet
-  (seen or hidden) that have a contactor of their part within 10 cm (what the error leaves out). Feet
-  are corrected by the shipped shoe model (``interaction.shoe_model``, made from seeds 300–5000, never
-  the bench's 0, 100, 200); ``--no-shoe-model`` scores the shoe rules alone (``shoe_model`` says which).
-- ``webcam_extremity_error_m_p95``: the same for the webcam's hand/foot contactors in (x, z), the
-  truth carried onto the webcam's stage plane through its own camera (what a webcam can know).
-  Like the depth error it scores only the contactors reported, so a hand or foot left out costs it
-  nothing: ``webcam_extremity_found_share`` is the share of the true hands and feet inside the
-  webcam's image that have a contactor of their part within 10 cm on that plane.
-- ``velocity_direction_error_deg_p95``: depth hand/foot contactors within 10 cm of a true hand (foot)
-  that moves faster than 0.5 m/s (the contactor *is* that hand): the angle between the contactor's
-  velocity and the true one. Contactors that claim no velocity (the observer withholds it when its
-  track is not steady) are counted in ``velocity_withheld``, not in the angle.
-  ``velocity_direction_error_deg_p95_sampled_truth``: the ceiling the frame rate sets: the same angle
-  for the exact true hand/foot centres (of everyone present, moving faster than 0.5 m/s) differenced
-  from the previous depth frame to this one (what a perfect tracker at that rate would claim).
-  ``velocity_direction_error_deg_p95_vs_frame_step``: the claimed velocities of the main figure against
-  that same step of the part they are at: the tracker's own error, with the frame rate's taken out.
-  ``velocity_direction_error_deg_p95_best_linear``: the same angle for the best weighting of the last
-  four exact centres, fitted to the true velocities themselves: no tracker that only combines positions
-  does better at this frame rate, even without noise (15 fps: ≈ 47°, 30 fps: ≈ 32°, 60 fps: ≈ 17°).
-  (Where the hands and feet really are, and both references: :mod:`jostle.bench.truth`.)
-- ``person_count_accuracy``: depth frames (after learning) whose count of people is the count of
-  people whose pelvis is inside the depth camera's view; frames with someone within 0.4 m of the
-  view's edge are ambiguous and not counted (``person_count_frames`` says how many were).
+``TARGETS`` are the issue's targets. What each figure measures, in full: docs/benches.md.
 """
 
 from __future__ import annotations

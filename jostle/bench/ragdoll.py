@@ -12,7 +12,7 @@ In one process, on the world's physics settings (``sim.physics.open_client``, 1/
    excess (``joint_limit_excess_deg`` and ``joint_limit_excess_deg_<when>``, degrees).
 
 Details (per phase, the baseline's fall time) go to stderr; the figures are ``KEYS`` and ``EXTRA_KEYS``.
-What each figure means, step by step: docs/notes/bench-ragdoll.md.
+What each figure means, step by step: docs/benches.md.
 """
 
 from __future__ import annotations

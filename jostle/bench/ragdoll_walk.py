@@ -92,7 +92,7 @@ def walking_slices(n: int, seconds: float, slices: int, spec: Any = None,
 def interleaved(runs: list[Iterator[float]]) -> list[tuple[float, Any]]:
     """Run timed runs turn about, a slice of each in turn, until all are done: (wall seconds in all its
     slices, what it returned) of each. Timed so, a ratio of two runs holds on a machine whose load changes
-    while they run (one after the other, on a busy machine: a ratio of 1.22 where alone it was 0.96)."""
+    while they run (docs/notes/bench-timing.md)."""
     totals = [0.0] * len(runs)
     results: list[Any] = [None] * len(runs)
     live = list(range(len(runs)))

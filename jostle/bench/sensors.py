@@ -4,21 +4,14 @@ Figures (``--json``):
 
 - ``fuzz_bytes``, ``crashes``, ``bad_frames_accepted``, ``pad_frames_per_s``: from
   :func:`jostle.bench.pad_fuzz.fuzz_parser` (binary framing, 8 pads): random and corrupted bytes fed
-  to the parser in random chunks, and the decode rate of a clean stream. Targets: 0, 0, ≥ 50,000/s.
-- ``replay_speed``: a recording of depth (640×400 uint16, a room with a moving person and sensor
-  noise, with intrinsics), colour (640×480, JPEG) at ``--fps`` and 8 force pads at 100 Hz, written
-  with :class:`sensors.record.RecordingWriter` (the app's defaults), then replayed as the app does —
-  one :class:`sensors.replay.Replay` per channel on a SimClock stepped at the frame rate, every due
-  frame read (a Frame with its payload decoded: pixels, millimetres, newtons) — as fast as
-  possible: recorded seconds / wall seconds, opening included. Target ≥ 50×.
-- ``replay_speed_one_pass``: the same frames decoded in one thread (the three sensors' payloads
-  interleaved in time from one shared reader, no decode-ahead threads): what one core does.
-- ``replay_cpu_s``: CPU seconds the process spent in the replay (all threads); with
-  ``replay_wall_s`` it shows how much ran in parallel. ``cpus`` and ``load_average`` (1 min, before
-  the replay) say what the machine had to give.
-- ``replay_open_s`` (the part of the replay spent in ``open()``), ``jpeg_decode_ms`` (one colour
-  frame) and ``zstd_decompress_s`` (every chunk of the file decompressed once, one thread): the two
-  costs no reader of this file can avoid. ``recording_mb``, ``write_s``.
+  to the parser in random chunks, and the decode rate of a clean stream.
+- ``replay_speed``: a recording of depth, colour and 8 force pads, written with
+  :class:`sensors.record.RecordingWriter`, replayed as the app does (one :class:`sensors.replay.Replay`
+  per channel on a SimClock, every due frame decoded) as fast as possible: recorded s / wall s.
+- ``replay_speed_one_pass`` (one thread), ``replay_cpu_s``, ``replay_wall_s``, ``replay_open_s``,
+  ``jpeg_decode_ms``, ``zstd_decompress_s``, ``recording_mb``, ``write_s``, ``cpus``, ``load_average``.
+
+What each figure measures, in full: docs/benches.md.
 """
 
 from __future__ import annotations

@@ -5,27 +5,12 @@ stage, walking and punching, 15 fps, 5 s; performer seeds seed + 1 … seed + 4)
 observer runs over each with the shoe rules alone (``shoe_model = false``), and every foot it finds
 (:func:`interaction.depth_parts.find_feet`'s ``shoe_rows``) within ``MATCH_M`` of a true foot's middle
 (:mod:`jostle.bench.truth`) gives one row: its features (:func:`interaction.shoe_model.column_features`)
-and the correction that would have put it there, along the camera's view, across it and up. The rows of
-all seeds, in seed order, are the model (:meth:`interaction.shoe_model.ShoeModel.save`); the same seeds
-make the same model (the same arrays).
+and the correction that would have put it there, along the camera's view, across it and up (metres).
+The rows of all seeds, in seed order, are the model (:meth:`interaction.shoe_model.ShoeModel.save`); the
+same seeds make the same model (the same arrays). The shipped model was made with seeds 300, 400, … 5000;
+the bench scores seeds 0, 100 and 200, never among them.
 
-The shipped model (``interaction/data/shoe_model.npz``) was made with seeds 300, 400, … 5000 (k = 10:
-36,253 feet, 8 min 51 s with ``--jobs 2`` here); the bench scores seeds 0 (its default), 100 and 200,
-never among them. Measured there (``jostle bench interaction --json --seed S``,
-``depth_extremity_error_m_p95`` of hands and feet), the shoe rules alone (``--no-shoe-model``) → with the
-model: 0.060 → 0.046 m (seed 0), 0.058 → 0.043 (100), 0.061 → 0.044 (200); p50 0.021 → 0.016 m; the share
-of hands and feet found 0.480 → 0.483 on seed 0 (feet moved nearer; none added). On motions it was not made
-from (one person, 5 s; feet only, mean / p95): walking and kicking, seeds 7, 8, 9: 3.1 / 9.2 → 2.4 / 5.8 cm,
-2.9 / 9.0 → 2.1 / 6.3, 3.7 / 11.2 → 2.6 / 7.3; running: 2.7 / 5.8 → 2.3 / 4.5 cm (two people: 3.5 / 7.5 → 3.1 /
-7.4). What the model's size buys, on
-seed 0: every second foot kept, 0.050 m; every third, 0.050. Fitted from seeds 300–2000 only (a probe,
-k 10 / 15): correcting the height alone 0.050 / 0.051 m, along the view and up 0.050 / 0.049, all three
-0.048 / 0.049. Cost: ≈ 0.1 ms of features and 0.06 ms of look-up a foot (on seed 0, depth_fps 508 → 336,
-latency_ms_p99 6.2 → 7.7 ms).
-At 30 fps (the rate installations run the OAK at; the bench's ``--fps 30``, seed 0) the model gives 0.051 m
-(hands 0.044, feet 0.052; at 15 fps 0.037 and 0.051). Feet from 30 fps recordings do not lower it: seeds
-350, 550, … 4950 recorded at 30 fps (36,499 feet) added to the shipped ones, 0.051 (0.046 at 15 fps); alone,
-0.053 (0.048). Not kept.
+How the shipped model was made and what it gives, with the figures: docs/notes/shoe-model-fit.md.
 """
 
 from __future__ import annotations

@@ -3,17 +3,14 @@
 The jostle world runs N wandering characters (AI, state machine, balance controller, contacts) the
 way the app drives it: ``World.step`` once per 30 Hz frame, snapshots included. The baselines are
 pybullet clients set up identically (``sim.physics.open_client``), each holding N bodies of the same
-shape, mass, inertia and friction, upright where the characters start (balanced on their tip they
-stay up without a controller, so every side pays for one floor contact per body), stepped with
-nothing but ``stepSimulation``: in one they glide at walking speed, all the same way (moving bodies
-cost pybullet ~1.3–1.5× still ones; walkers move), in the other they stand still. The three alternate
-in blocks of simulated time so that a noisy, shared machine slows them alike; each one's wall time is
-summed over its blocks.
+shape, mass, inertia and friction, upright where the characters start, stepped with nothing but
+``stepSimulation``: in one they glide at walking speed, all the same way, in the other they stand
+still. The three alternate in blocks of simulated time so that a shared machine slows them alike.
 
-Figures: ``bare_step_us`` (gliding bodies) / ``jostle_step_us`` are wall µs per physics step of the
-whole world, ``overhead_ratio`` their ratio (``overhead_ratio_still`` against still bodies),
-``realtime_factor`` simulated seconds per wall second of the jostle world, ``jostle_physics_us`` /
-``jostle_control_us`` the jostle step split into pybullet's stepping and everything else.
+Figures: ``bare_step_us`` / ``jostle_step_us`` (wall µs per physics step of the whole world),
+``overhead_ratio`` (``_still``: against still bodies), ``realtime_factor`` (simulated s per wall s),
+``jostle_physics_us`` / ``jostle_control_us``. In full: docs/benches.md; why two baselines:
+docs/notes/bench-timing.md.
 """
 
 from __future__ import annotations

@@ -4,19 +4,12 @@ The config (default ``configs/demo.toml``) runs in the real :class:`jostle.app.A
 rendering (every frame drawn and read back, no video written), every replay sensor looped forever
 (``loop = true``), for ``--minutes`` of wall time. The clock is the wall clock running free
 (:class:`FreeRunningClock`): recordings play at their real rate, the world is stepped by the time
-that really passed, and the loop never sleeps, so it draws as many frames as the CPU allows.
-``--clock paced`` paces the loop to the render rate as a kiosk does (the wall clock).
+that really passed, and the loop never sleeps. ``--clock paced`` paces the loop to the render rate
+as a kiosk does (the wall clock).
 
-Windows (all measured from the first drawn frame, on the wall clock):
-
-- warm-up: the first ``--warmup-s`` seconds (30 s; a quarter of the run if that is shorter).
-  ``rss_start_mb`` is taken at its end, so start-up allocations do not count as growth.
-- ``fps_first_minute``: the minute right after the warm-up; ``fps_last_minute``: the last minute
-  (each is half of what is left after the warm-up if the run is shorter than that: ``window_s``).
-- ``fps_cpu_*``: frames per CPU-second of the whole process (all its threads) in the same windows,
-  steadier than wall fps when other work shares the machine.
-- ``errors``: records logged at ERROR or above plus exceptions that ended the run (their first
-  lines in ``error_messages``); ``warnings`` counts Python warnings.
+Windows from the first drawn frame (wall clock): a warm-up (``--warmup-s``; ``rss_start_mb`` at its
+end), then ``fps_first_minute`` and ``fps_last_minute`` (``fps_cpu_*``: frames per CPU-second of the
+process); ``errors`` and ``warnings`` count what was logged. In full: docs/benches.md.
 
 Nothing per frame is kept (a few hundred samples at most), so the bench does not grow by itself.
 """
