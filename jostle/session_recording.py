@@ -1,24 +1,22 @@
 """Session recording: the live sensor frames into rotating MCAP files that stay under a quota.
 
 ``[record] dir = "sessions", quota_mb = 2000, file_minutes = 10`` records every frame the sensors
-deliver while the show runs (:class:`sensors.recording.writer.RecordingWriter`, one channel per sensor, so a
-file replays with ``jostle replay``) into ``dir/session-000001.mcap``, ``session-000002.mcap``, …
-(numbering goes on after the files already there; larger numbers are newer).
+deliver while the show runs (:class:`sensors.recording.writer.RecordingWriter`, one channel per sensor; a file
+replays with ``jostle replay``) into ``dir/session-000001.mcap``, … (numbering goes on after the files
+already there; larger numbers are newer).
 
 - A file is closed and the next one begun after ``file_minutes`` of loop time, or when it reaches
   a quarter of the quota (so at least four files share the quota and deleting one frees room).
 - Before each new file the budget is worked out: ``quota_mb``, or less if the disk is short (the
-  session files plus the free space, less ``min_free_mb``); a file may grow to a quarter of it,
-  and the oldest session files are deleted until the closed ones plus one full file fit. So the
-  session files never pass the quota and never take the disk's last ``min_free_mb``. Only files
-  named ``session-NNNNNN.mcap`` in ``dir`` are ever deleted.
+  session files plus the free space, less ``min_free_mb``); a file may grow to a quarter of it, and the
+  oldest session files are deleted until the closed ones plus one full file fit: they never pass the
+  quota nor take the disk's last ``min_free_mb``. Only ``session-NNNNNN.mcap`` in ``dir`` are deleted.
 - If the budget is too small for any file (the disk filled by something else), or a write fails
   (ENOSPC, EIO, a folder made read-only, …), recording stops with ONE error in the log and the
-  show goes on. A file cut by ENOSPC is deleted (it holds nothing that fits, and the disk needs
-  the room); another failed file is kept as written (a replay plays it up to the damage).
+  show goes on. A file cut by ENOSPC is deleted (the disk needs the room); another failed file is
+  kept as written (a replay plays it up to the damage).
 
 All decisions are made on the loop's clock (frame times), so on a SimClock they repeat exactly.
-:meth:`SessionRecorder.health` returns a frozen :class:`RecordingHealth` for the health report.
 """
 
 from __future__ import annotations

@@ -11,19 +11,11 @@
     boxes = "oak"              # the depth observer whose frames show real boxes on the floor ("": none)
     [terrain.observe]          # interaction.depth.terrain_cells.TerrainObserverConfig (hold_s, settle_s, ...)
 
-A layout is a map of heights seen from above with the audience at the bottom: one string per row of
-cells, one character per cell — ``.`` or ``0`` bare floor, ``1``–``9`` that many cubes; characters run
-along +x, the LAST row is the one nearest the audience (lowest y); ``at`` is the grid cell of the last
-row's first character. In a layout file (TOML) the same two keys::
-
-    at = [20, 28]
-    rows = [
-      "..3..",
-      "..2..",
-      "..1..",
-    ]
-
-Errors are one line naming the file, the row and column, and what was expected.
+A layout (a file with the same ``rows`` and ``at`` keys, e.g. ``configs/terrain/steps.toml``) is a map of
+heights seen from above with the audience at the bottom: one string per row of cells, one character per
+cell (``.`` or ``0`` bare floor, ``1``–``9`` that many cubes) along +x; the LAST row is the one nearest
+the audience (lowest y); ``at`` is the grid cell of the last row's first character. Errors are one line
+naming the file, the row and column, and what was expected.
 """
 
 from __future__ import annotations

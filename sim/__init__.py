@@ -3,7 +3,7 @@
 Public surface: ``sim.world.World`` (``add_character``, ``step``, ``strike``, ``snapshot``, ``close``,
 ``counters``, ``character``), ``sim.config.WorldConfig`` / ``CharacterSpec``,
 ``sim.stepping.compute_n_substeps``, ``sim.body.figure_point`` and the snapshot types in
-``sim.snapshot``. Benchmarks: ``sim.bench`` (``jostle bench sim``) and ``sim.bench_identify``
+``sim.snapshot``. Benchmarks: ``jostle.bench.sim`` (``jostle bench sim``) and ``jostle.bench.identify_experiment``
 (``jostle bench identify``). Nothing is imported here, so ``import sim`` stays cheap.
 
 Inside, every character is a row of numpy arrays (``sim.crowd``); once per control tick (30 Hz by

@@ -1,4 +1,4 @@
-"""``jostle bench interaction --quick`` (jostle.bench_interaction): records, observes, scores; figures sane."""
+"""``jostle bench interaction --quick`` (jostle.bench.interaction): records, observes, scores; figures sane."""
 
 from __future__ import annotations
 
@@ -8,11 +8,11 @@ from typing import Any
 
 import pytest
 
-from jostle import bench_interaction
+from jostle.bench import interaction as bench_interaction
 
 
 def main_json(name: str, argv: list[str]) -> dict[str, Any]:
-    """As jostle.bench_cli.main_json, on the module directly (BENCHES may still name interaction.bench)."""
+    """As jostle.cli.bench.main_json, on the module directly (the table names jostle.bench.interaction)."""
     import argparse
 
     assert name == "interaction"

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from jostle.bench_cli import main_json
-from sensors.bench import DEPTH_SIZE, INTRINSICS, PADS, write_recording
+from jostle.bench.sensors import DEPTH_SIZE, INTRINSICS, PADS, write_recording
+from jostle.cli.bench import main_json
 from sensors.recording.info import describe_recording
 from sensors.recording.source import iter_frames
 

@@ -1,4 +1,4 @@
-"""The bench's two velocity references (jostle.bench_truth, jostle.bench_interaction): a contactor's
+"""The bench's two velocity references (jostle.bench.truth, jostle.bench.interaction): a contactor's
 velocity is scored against the part's true velocity at the frame's instant and, apart, against the
 part's true motion over the last frame interval, so the tracker's own error shows beside the frame
 rate's."""
@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from interaction.types import BodyObservation, Contactor
-from jostle import bench_interaction
-from jostle.bench_truth import LinearCeiling, body_part_centres, true_steps
-from jostle.synth.truth import PersonTruth, TruthFrame
+from jostle.bench import interaction as bench_interaction
+from jostle.bench.truth import LinearCeiling, body_part_centres, true_steps
+from jostle.performer.truth import PersonTruth, TruthFrame
 from sim.motion.mocap import HUMANOID
 
 OMEGA, DT = 0.5, 1 / 15  # a rigid body turning about a vertical axis 10 m away: parts move ≈ 5 m/s

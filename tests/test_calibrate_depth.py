@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from interaction.depth.calibration import DepthCalibration, DepthCalibrationError, calibrate_depth, fit_floor
-from jostle import calibrate_cli
-from jostle.synth.truth import read_cameras
+from jostle.cli import calibrate as calibrate_cli
+from jostle.performer.truth import read_cameras
 from sensors.base import DepthImage
 from sensors.recording.source import iter_payloads
 
@@ -90,7 +90,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def test_cli_headless_from_a_recording(tmp_path: Path) -> None:
-    from jostle.cli import UsageError
+    from jostle.errors import UsageError
 
     config = tmp_path / "install.toml"
     config.write_text("# not read\n")

@@ -24,7 +24,7 @@ from interaction.webcam.calibrate import (
     fit_calibration,
 )
 from interaction.webcam.calibration import Calibration
-from jostle import calibrate_cli
+from jostle.cli import calibrate as calibrate_cli
 from sensors.base import ColorImage, Frame
 
 W, H = 640, 480
@@ -192,7 +192,7 @@ def test_cli_headless_from_a_recording(tmp_path: Path) -> None:
     assert np.abs(cal.image_to_stage(np.array([[320.0, 240.0]]))[:, [0, 2]] - truth).max() < 0.01
     preview = cv2.imread(str(tmp_path / "fit.png"))
     assert preview is not None and preview.shape == (H, W, 3)
-    from jostle.cli import UsageError
+    from jostle.errors import UsageError
 
     again = _parser().parse_args(argv)
     with pytest.raises(UsageError, match="exists; pass --force"):

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from jostle.bench_cli import main_json
 from jostle.cli import main
+from jostle.cli.bench import main_json
 from jostle.config import load_config
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -1,7 +1,7 @@
 """Hands and feet of the depth observer, at the OAK's full 640×400, against the virtual performer's truth.
 
 One person walks and punches across the stage (recorded here, ≈ 6 s). Hands and feet are compared
-like with like (jostle.bench_interaction.body_part_centres: the middle of the performer's hand
+like with like (jostle.bench.interaction.body_part_centres: the middle of the performer's hand
 sphere and of its shoe, not the wrist or the ankle joint). Measured on three seeds (3, 5, 8) when
 this was written: hands p50 2.1–2.5 cm, feet p50 3.0–3.2 cm, all p90 5–9 cm; the thresholds below
 leave room for other seeds, and the previous finder (hands as the points farthest out from the torso,
@@ -17,17 +17,17 @@ import pytest
 
 from interaction.depth import DepthObserver, DepthObserverConfig
 from interaction.types import BodyObservation
-from jostle.bench_interaction import _depth_calibration
-from jostle.bench_truth import body_part_centres
-from jostle.synth.truth import TruthFrame, read_cameras, read_truth
+from jostle.bench.interaction import _depth_calibration
+from jostle.bench.truth import body_part_centres
+from jostle.performer.truth import TruthFrame, read_cameras, read_truth
 from sensors.base import DepthImage, Frame
 from sensors.recording.source import iter_payloads
 
 
 @pytest.fixture(scope="module")
 def walk(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[BodyObservation, TruthFrame]]:
-    from jostle.synth.config import DepthCameraConfig, PerformerConfig
-    from jostle.synth.session import SynthSensors, record_performance
+    from jostle.performer.config import DepthCameraConfig, PerformerConfig
+    from jostle.performer.session import SynthSensors, record_performance
 
     path = tmp_path_factory.mktemp("walk") / "walk.mcap"
     config = PerformerConfig(clips=("walk", "punch"), width=160, height=120, fps=15.0, duration_s=4.0, seed=3,

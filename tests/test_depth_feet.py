@@ -14,8 +14,8 @@ from interaction.depth.fine_depth import FineDepth
 from interaction.depth.limb_tracks import LimbTracker
 from interaction.depth.parts import FLOOR_CUT_M, find_feet
 from interaction.depth.shoe_fit import HANGING_FROM_M, SHOE_HEIGHT_M, lies_flat, shoe_middle_height
-from jostle.bench_truth import sampled_truth_angles
-from jostle.synth.truth import PersonTruth, TruthFrame
+from jostle.bench.truth import sampled_truth_angles
+from jostle.performer.truth import PersonTruth, TruthFrame
 from sensors.base import DepthImage
 from sim.motion.mocap import HUMANOID
 

@@ -12,8 +12,8 @@ import pytest
 from interaction.depth import DepthObserver, DepthObserverConfig
 from interaction.depth.calibration import DepthCalibration, calibrate_depth, fit_floor
 from interaction.types import BodyObservation
-from jostle.bench_truth import visible_people
-from jostle.synth.truth import TruthFrame, read_cameras, read_truth
+from jostle.bench.truth import visible_people
+from jostle.performer.truth import TruthFrame, read_cameras, read_truth
 from sensors.base import ColorImage, DepthImage, Frame
 from sensors.recording.source import iter_payloads
 

@@ -12,11 +12,11 @@ import pytest
 from interaction.depth import DepthObserver, DepthObserverConfig
 from interaction.depth.hidden_people import CONFIRM_FRAMES, HiddenPeople
 from interaction.people import split_side_by_side
-from jostle.bench_interaction import _depth_calibration
-from jostle.bench_truth import visible_people
-from jostle.synth.config import DepthCameraConfig, PerformerConfig
-from jostle.synth.session import SynthSensors, record_performance
-from jostle.synth.truth import read_cameras, read_truth
+from jostle.bench.interaction import _depth_calibration
+from jostle.bench.truth import visible_people
+from jostle.performer.config import DepthCameraConfig, PerformerConfig
+from jostle.performer.session import SynthSensors, record_performance
+from jostle.performer.truth import read_cameras, read_truth
 from sensors.base import DepthImage, Frame
 from sensors.recording.source import iter_payloads
 

@@ -12,7 +12,7 @@ from interaction.fusion import ID_STRIDE, FusionConfig, SensorFusion
 from interaction.types import BodyObservation, Contactor, Impulse
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
 from interaction.webcam.calibration import Calibration
-from jostle.synth.truth import read_cameras
+from jostle.performer.truth import read_cameras
 from sensors.base import DepthImage, Frame
 from sensors.recording.source import iter_payloads
 
@@ -52,8 +52,8 @@ def test_margin_is_checked() -> None:
 def crossing(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Two people crossing, webcam 320×240 (the committed fixtures' 160×120 is too small for the webcam
     observer's defaults) and OAK 160×100, with truth; ~4 s to make."""
-    from jostle.synth.config import DepthCameraConfig, PerformerConfig
-    from jostle.synth.session import SynthSensors, record_performance
+    from jostle.performer.config import DepthCameraConfig, PerformerConfig
+    from jostle.performer.session import SynthSensors, record_performance
 
     path = tmp_path_factory.mktemp("fusion") / "crossing.mcap"
     config = PerformerConfig(width=320, height=240, fps=10.0, duration_s=5.5, seed=0, empty_s=1.0, people=2,

@@ -17,13 +17,15 @@ from typing import Any
 
 import pytest
 
-from jostle.service_unit import OPERATOR_EXIT
+from jostle.cli.service_unit import OPERATOR_EXIT
 
 ROOT = Path(__file__).resolve().parent.parent
 
 CHILD = r"""
 import json, sys, time
-from render.bench import scene
+from jostle.bench.render import scene
+from render.gl.renderer import Renderer
+from jostle.bench.render import scene
 from render.gl.renderer import Renderer
 from render.keyframes import KeyframeSet
 

@@ -38,7 +38,7 @@ def test_depthais_state_events_map_to_health() -> None:
 
 def test_importing_the_sensors_never_imports_depthai() -> None:
     code = ("import sys, sensors, sensors.registry, sensors.oak, sensors.oak.config, sensors.oak.frames, "
-            "sensors.oak.search, sensors.oak.link, sensors.oak.driver, sensors.faults, sensors.bench; "
+            "sensors.oak.search, sensors.oak.link, sensors.oak.driver, sensors.faults, jostle.bench.sensors; "
             "print(sorted(m for m in ('depthai', 'cv2', 'serial') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
     assert out.stdout.strip() == "[]"

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from sensors.bench_pads import build_fuzz_stream, fuzz_parser
+from jostle.bench.pad_fuzz import build_fuzz_stream, fuzz_parser
 from sensors.pads.protocol import FRAMINGS, StreamParser
 
 

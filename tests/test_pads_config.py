@@ -77,7 +77,7 @@ class _Clock:
 
 def test_importing_the_package_pulls_in_no_serial_backend() -> None:
     code = ("import sys, sensors, sensors.registry, sensors.pads, sensors.pads.config, sensors.pads.protocol, "
-            "sensors.pads.calibration, sensors.bench_pads; print('serial' in sys.modules)")
+            "sensors.pads.calibration, jostle.bench.pad_fuzz; print('serial' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=Path(__file__).resolve().parents[1])
     assert out.stdout.strip() == "False"

@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from jostle.synth.camera import apply_homography
-from jostle.synth.dress import dressed_urdf
-from jostle.synth.performer import PerformerConfig, PerformerSensor, PerformerTruth
+from jostle.performer.camera import apply_homography
+from jostle.performer.dress import dressed_urdf
+from jostle.performer.performer import PerformerConfig, PerformerSensor, PerformerTruth
 from sensors.base import ColorImage, Frame, SensorNotOpen, SensorState, frame_digest
 from sensors.clock import SimClock
 from sim.motion.mocap import HUMANOID

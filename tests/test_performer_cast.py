@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from jostle.synth.cast import plan_cast
-from jostle.synth.config import PerformerConfig
-from jostle.synth.performer import PerformerSensor
-from jostle.synth.scene import Performance
+from jostle.performer.cast import plan_cast
+from jostle.performer.config import PerformerConfig
+from jostle.performer.performer import PerformerSensor
+from jostle.performer.scene import Performance
 from sensors.clock import SimClock
 from sim.motion.mocap import HUMANOID
 

@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from jostle.synth.config import DepthCameraConfig, PerformerConfig
-from jostle.synth.depth import DepthTruth, PerformerDepth, occluded_in_second_view, sigma_depth_m
-from jostle.synth.scene import Performance
+from jostle.performer.config import DepthCameraConfig, PerformerConfig
+from jostle.performer.depth import DepthTruth, PerformerDepth, occluded_in_second_view, sigma_depth_m
+from jostle.performer.scene import Performance
 from sensors.base import DepthImage, Frame, SensorState, frame_digest
 from sensors.clock import SimClock
 from sim.motion.mocap import HUMANOID

@@ -12,8 +12,8 @@ import pytest
 
 from interaction.webcam.calibration import Calibration
 from jostle.cli import main
-from jostle.synth.pads import default_pad_layout
-from jostle.synth.truth import (
+from jostle.performer.pads import default_pad_layout
+from jostle.performer.truth import (
     TRUTH_SCHEMA,
     TRUTH_SCHEMA_NAME,
     TruthFrame,

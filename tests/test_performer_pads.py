@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from jostle.configtree import ConfigError
-from jostle.synth.choreography import stage_joint_positions
-from jostle.synth.config import PerformerConfig
-from jostle.synth.pads import (
+from jostle.performer.choreography import stage_joint_positions
+from jostle.performer.config import PerformerConfig
+from jostle.performer.pads import (
     GRAVITY,
     HandStrikes,
     PadBoardConfig,
@@ -25,7 +25,7 @@ from jostle.synth.pads import (
     grid_pad_forces,
     load_pad_layout,
 )
-from jostle.synth.scene import Performance
+from jostle.performer.scene import Performance
 from sensors.base import Frame, PadSample, frame_digest
 from sensors.clock import SimClock
 from sim.motion.mocap import HUMANOID

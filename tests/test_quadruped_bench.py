@@ -6,16 +6,16 @@ import argparse
 
 import numpy as np
 
-from jostle.bench_cli import BENCHES
+from jostle.bench import quadruped as bench
+from jostle.bench.table import BENCHES
 from sim.config import CharacterSpec, WorldConfig
-from sim.quadruped import bench
 from sim.quadruped.config import QuadrupedSpec
 from sim.quadruped.grid import TerrainConfig
 from sim.world import World
 
 
 def test_bench_reports_the_issue_keys() -> None:
-    assert BENCHES["quadruped"][0] == "sim.quadruped.bench"
+    assert BENCHES["quadruped"][0] is bench
     parser = argparse.ArgumentParser()
     bench.add_arguments(parser)
     args = parser.parse_args(["--terrains", "4", "--walk-size", "14", "--replan-size", "24", "--replans", "20"])

@@ -7,9 +7,12 @@ from collections.abc import Generator
 
 import pytest
 
-from jostle.bench_cli import BENCHES, main_json
-from jostle.bench_ragdoll import EXCESS_WHEN, EXTRA_KEYS, KEYS, interleaved, walking_slices
-from jostle.ragdoll_baseline import baseline_slices
+from jostle.bench.ragdoll import EXTRA_KEYS, KEYS
+from jostle.bench.ragdoll_baseline import baseline_slices
+from jostle.bench.ragdoll_pushes import EXCESS_WHEN
+from jostle.bench.ragdoll_walk import interleaved, walking_slices
+from jostle.bench.table import BENCHES
+from jostle.cli.bench import main_json
 from sim.articulated.spec import ArticulatedSpec
 
 
@@ -101,7 +104,7 @@ class _Seen:
 
 
 def test_the_excess_is_split_by_when_it_happened() -> None:
-    from jostle.bench_ragdoll import _Worst
+    from jostle.bench.ragdoll_pushes import Worst as _Worst
 
     worst = _Worst()
     worst.see([_Seen("walk", 0.01)])  # walking up to a push

@@ -58,7 +58,7 @@ def test_export_writes_what_the_run_did_bvh_and_gltf(tmp_path: Path) -> None:
 
     import numpy as np
 
-    from jostle.ragdoll_cli import collect
+    from jostle.cli.ragdoll import collect
     from sim.articulated.export import STAGE_TO_Y_UP, read_gltf_rotations
     from sim.motion import quaternion as quat
     from sim.motion.bvh import read_bvh

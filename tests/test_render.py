@@ -302,7 +302,7 @@ def test_the_critter_is_drawn_small_with_its_own_set(renderer: Renderer, kset: K
 
 
 def test_bench_render_reports_its_figures() -> None:
-    from jostle.bench_cli import main_json
+    from jostle.cli.bench import main_json
 
     figures = main_json("render", ["--characters", "6", "--width", "160", "--height", "90", "--frames", "4"])
     for key in ("characters", "width", "height", "fps", "frame_ms_p50", "frame_ms_p99", "pose_eval_us_per_character"):

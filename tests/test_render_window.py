@@ -14,7 +14,9 @@ import pytest
 SCRIPT = r"""
 import sys, numpy as np
 from pyglet import gl
-from render.bench import scene
+from jostle.bench.render import scene
+from render.gl.renderer import Renderer
+from jostle.bench.render import scene
 from render.gl.renderer import Renderer
 from render.keyframes import KeyframeSet
 

@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 from jostle.cli import main
-from jostle.journal import JournalFormatter, priority, under_journal
-from jostle.service_unit import OPERATOR_EXIT, UnitSpec, unit_name, unit_text
+from jostle.cli.journal import JournalFormatter, priority, under_journal
+from jostle.cli.service_unit import OPERATOR_EXIT, UnitSpec, unit_name, unit_text
 
 ROOT = Path(__file__).resolve().parent.parent
 JOSTLE = Path(os.path.abspath(sys.executable)).parent / "jostle"
@@ -143,7 +143,7 @@ def test_journal_format_only_when_stderr_is_the_stream_systemd_named(tmp_path: P
     st = log.stat()
     script = textwrap.dedent("""
         import logging, sys
-        from jostle.journal import adopt_journal
+        from jostle.cli.journal import adopt_journal
         logging.basicConfig(format="plain: %(message)s")
         print(adopt_journal(), file=sys.stdout)
         logging.getLogger("jostle.t").warning("hello")

@@ -1,4 +1,4 @@
-"""The depth observer's shoe model (interaction.depth.shoe_model) and how it is made (jostle.shoe_model_fit)."""
+"""The depth observer's shoe model (interaction.depth.shoe_model) and how it is made (jostle.bench.shoe_model_fit)."""
 
 from __future__ import annotations
 
@@ -16,10 +16,10 @@ from interaction.depth.shoe_model import (
     default_model_path,
     shipped_shoe_model,
 )
-from jostle.bench_interaction import _depth_calibration
-from jostle.bench_truth import part_centres
-from jostle.shoe_model_fit import BENCH_SEEDS, MATCH_M, parse_seeds, recording_rows
-from jostle.synth.truth import read_cameras, read_truth
+from jostle.bench.interaction import _depth_calibration
+from jostle.bench.shoe_model_fit import BENCH_SEEDS, MATCH_M, parse_seeds, recording_rows
+from jostle.bench.truth import part_centres
+from jostle.performer.truth import read_cameras, read_truth
 from sensors.base import DepthImage, Frame
 from sensors.recording.source import iter_payloads
 
@@ -111,7 +111,7 @@ def test_the_shipped_model_is_made_from_other_seeds_than_the_benchs() -> None:
 
 
 def test_seeds_parse_and_the_benchs_seeds_are_refused(tmp_path: Path) -> None:
-    from jostle.shoe_model_fit import fit
+    from jostle.bench.shoe_model_fit import fit
 
     assert parse_seeds("300:600:100") == [300, 400, 500, 600] and parse_seeds("300, 700") == [300, 700]
     with pytest.raises(ValueError, match="--seeds: expected"):
@@ -128,8 +128,8 @@ def test_seeds_parse_and_the_benchs_seeds_are_refused(tmp_path: Path) -> None:
 def crossing(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """One person walking and kicking across the stage: performer seed 7, and a clip (kick), that the
     shipped model's recordings (walk, punch; seeds 301–5004) never had."""
-    from jostle.synth.config import DepthCameraConfig, PerformerConfig
-    from jostle.synth.session import SynthSensors, record_performance
+    from jostle.performer.config import DepthCameraConfig, PerformerConfig
+    from jostle.performer.session import SynthSensors, record_performance
 
     path = tmp_path_factory.mktemp("shoes") / "crossing.mcap"
     config = PerformerConfig(clips=("walk", "kick"), width=160, height=120, fps=15.0, duration_s=5.0, seed=7,

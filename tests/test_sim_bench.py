@@ -8,8 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from sim import bench, bench_identify
-from sim.bench_identify import THETA_DIR, THETA_POS, Trial, body_view, run_trials
+from jostle.bench import identify_experiment as bench_identify
+from jostle.bench import sim as bench
+from jostle.bench.identify_experiment import THETA_DIR, THETA_POS, Trial, body_view, run_trials
 
 
 def _args(module: object, argv: list[str]) -> argparse.Namespace:
@@ -89,7 +90,7 @@ def test_bench_identify_reports_table_1() -> None:
 
 def test_the_drawn_figure_view_places_joints_on_the_body(trials: list[Trial]) -> None:
     """jostle's variant watches the keyframed figure: joints in the heading frame at the push."""
-    from jostle.bench_identify import DEFAULT_SET, pose_view
+    from jostle.bench.identify import DEFAULT_SET, pose_view
     from render.keyframes import KeyframeSet
     from sim.motion.mocap import HUMANOID
 

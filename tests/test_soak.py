@@ -12,9 +12,9 @@ import pytest
 from interaction.observers import Observer, ObserverType, observer_types
 from interaction.types import BodyObservation
 from jostle import app as app_module
-from jostle.bench_cli import main_json
+from jostle.bench.soak import FreeRunningClock, looped, rss_mb
+from jostle.cli.bench import main_json
 from jostle.config import load_config
-from jostle.soak import FreeRunningClock, looped, rss_mb
 from sensors.base import Frame
 from sensors.recording.replay import ReplayConfig
 

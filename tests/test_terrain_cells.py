@@ -1,7 +1,7 @@
 """interaction.depth.terrain_cells: boxes on the floor seen by a (virtual) depth camera, and hands held still.
 
 The depth frames are ray-cast from a known scene (floor + axis-aligned boxes) with the virtual OAK's
-camera and its stereo error model (jostle.synth), so the right answer is known by construction.
+camera and its stereo error model (jostle.performer), so the right answer is known by construction.
 """
 
 from __future__ import annotations
@@ -22,9 +22,9 @@ from interaction.depth.terrain_cells import (
 )
 from interaction.depth.terrain_points import StagePoints
 from interaction.types import BodyObservation, Contactor
-from jostle.synth.camera import PinholeCamera
-from jostle.synth.config import DepthCameraConfig
-from jostle.synth.depth import stereo_depth
+from jostle.performer.camera import PinholeCamera
+from jostle.performer.config import DepthCameraConfig
+from jostle.performer.depth import stereo_depth
 from sensors.base import DepthImage, Frame
 
 OAK = DepthCameraConfig()

@@ -23,7 +23,7 @@ from interaction.depth import DepthObserver, DepthObserverConfig
 from interaction.depth.calibration import calibrate_depth, fit_floor
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
 from interaction.webcam.calibration import Calibration
-from jostle.synth.truth import read_cameras
+from jostle.performer.truth import read_cameras
 from sensors.base import ColorImage, DepthImage, Frame
 from sensors.recording.source import iter_payloads
 

@@ -3,7 +3,7 @@
 Drawn masks with known shoes (feet are the middle of the shoe band, none from hips over hidden legs or
 from a foot the frame cuts), pieces of one person joined, the background learned frame by frame (the
 median of the frames, bit for bit), dark trousers on a floor of the same hue kept as a person, and a
-recorded virtual performer (jostle.synth, 640×480, with its ground truth) scored like the bench does.
+recorded virtual performer (jostle.performer, 640×480, with its ground truth) scored like the bench does.
 """
 
 from __future__ import annotations
@@ -169,8 +169,8 @@ def test_dark_trousers_on_a_brown_floor_stay_a_person_with_feet() -> None:
 
 @pytest.fixture(scope="module")
 def crossing(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from jostle.synth.config import PerformerConfig
-    from jostle.synth.session import SynthSensors, record_performance
+    from jostle.performer.config import PerformerConfig
+    from jostle.performer.session import SynthSensors, record_performance
 
     path = tmp_path_factory.mktemp("performer") / "crossing2.mcap"
     config = PerformerConfig(clips=("walk", "punch"), width=640, height=480, fps=15.0, duration_s=4.0, seed=3,
@@ -183,9 +183,9 @@ def test_virtual_performer_hands_and_feet_on_the_stage_plane(crossing: Path) -> 
     """Two people crossing, 640×480: each hand/foot contactor against the nearest true hand (the hand
     sphere) or foot (the shoe's middle), carried onto the webcam's plane, as ``jostle bench interaction``
     scores it; and the share of true hands and feet in view that have a contactor within 10 cm."""
-    from jostle.bench_truth import body_part_centres
-    from jostle.synth.camera import apply_homography
-    from jostle.synth.truth import read_cameras, read_truth
+    from jostle.bench.truth import body_part_centres
+    from jostle.performer.camera import apply_homography
+    from jostle.performer.truth import read_cameras, read_truth
     from sensors.recording.source import iter_payloads
 
     camera = read_cameras(crossing)["webcam"]

@@ -76,7 +76,7 @@ class DepthObserver:
         self._fine = FineDepth(calibration)
         self._feet_seen: list[np.ndarray] = []  # the last person's feet as measured on their points seen
         self._shoes = shipped_shoe_model() if config.shoe_model else None
-        # a list here gets every foot's (features, position before the shoe model): jostle.shoe_model_fit
+        # a list here gets every foot's (features, position before the shoe model): jostle.bench.shoe_model_fit
         self.shoes_seen: list[tuple[np.ndarray, np.ndarray]] | None = None
         self._hidden = HiddenPeople(config.hidden_memory_s, config.hidden_near_m,
                                     (float(calibration.translation[0]), float(calibration.translation[1])))

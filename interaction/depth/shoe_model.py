@@ -7,7 +7,7 @@ corrects: each foot moves by the mean correction of the ``k`` feet most like it 
 on :func:`column_features` scaled to unit spread) among feet of virtual performers whose true middles
 are known — along the camera's view, across it, and up (metres). The model is those feet's features
 and corrections (``interaction/depth/data/shoe_model.npz``, made by ``jostle synth shoe-model``:
-performer recordings with truth, ``jostle.shoe_model_fit``); nothing is learnt at run time.
+performer recordings with truth, ``jostle.bench.shoe_model_fit``); nothing is learnt at run time.
 
 It knows the virtual performer's shoe (a 26 × 10 × 8 cm box), its gait (two mocap clips) and its
 depth camera's noise, not a real shoe: on real people it can only be as right as those are like
