@@ -1,14 +1,12 @@
-"""The one set of limits for input from outside (DESIGN.md §7), used by every reader and writer.
+"""The one set of limits for input from outside (DESIGN.md §7), for every reader and writer.
 
-Recordings, configs, calibrations, keyframe files, BVH/glTF, serial bytes and network messages are
-untrusted: every reader opens regular files only (``open_regular``, ``read_bytes``, ``read_text``),
-parses TOML/JSON with nesting and counts bounded first (``load_toml``, ``load_json``), checks an
-image's declared size before decoding (``check_image``, ``check_raw_image``), decompresses within a
-budget (``decompress``, ``budget_for``), takes numbers finite and in range (``finite``, ``whole``) and
-time monotone within a sane gap (``Timeline``). Writers replace only regular files (``write_owned``);
-generated systemd units quote by systemd's rules (``systemd_*``). Every refusal is one
-``UntrustedInput`` (a ``ValueError``): one line, ``SOURCE: PROBLEM``, a user error. The numbers
-live in ``sensors.untrusted.limits``. Imports only the standard library (zstandard/lz4 on use).
+Readers open regular files only (``open_regular``, ``read_bytes``, ``read_text``), bound TOML/JSON
+before parsing (``load_toml``, ``load_json``), check images' declared sizes before decoding
+(``check_image``, ``check_raw_image``), decompress within a budget (``decompress``, ``budget_for``),
+take numbers finite and in range (``finite``, ``whole``) and time monotone (``Timeline``). Writers
+replace only regular files (``write_owned``); systemd units quote by systemd's rules (``systemd_*``).
+Every refusal is one ``UntrustedInput`` (a ``ValueError``, one line ``SOURCE: PROBLEM``, a user
+error). The numbers live in ``sensors.untrusted.limits``. Imports only the standard library.
 """
 
 from sensors.untrusted.compressed import budget_for, decompress

@@ -112,10 +112,10 @@ def resolve_within(folder: Pathish, reference: str, what: str = "file") -> Path:
 
 
 def size_text(n: int) -> str:
-    """A byte count for a message: '512 bytes', '1 MiB', '2.4 GiB'."""
+    """A byte count for a message: '512 bytes', '1 MiB', '4194305 bytes (4 MiB)' (exact when not round)."""
     for unit, size in (("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
         if n >= size:
-            return f"{n / size:.3g} {unit}"
+            return f"{n // size} {unit}" if n % size == 0 else f"{n} bytes ({n / size:.3g} {unit})"
     return f"{n} bytes"
 
 

@@ -26,8 +26,9 @@ class InputLimits:
     max_items: int = 50_000
 
 
-# Configs (`jostle run CONFIG`): the shipped ones are 1–2 KB, nesting 2, under 60 items.
-CONFIG_TOML = InputLimits(max_bytes=1 * MiB, max_items=50_000)
+# Configs (`jostle run CONFIG`): the shipped ones are 1–2 KB, nesting 2, under 60 items; 10,000 items
+# is 150× that, and refuses a config of 10,000 sensors (5.5 GB and "can't start new thread") at once.
+CONFIG_TOML = InputLimits(max_bytes=1 * MiB, max_items=10_000)
 # Camera / depth calibrations: under 1 KB today; a dense lens or depth-correction table could grow.
 CALIBRATION = InputLimits(max_bytes=1 * MiB, max_items=50_000)
 # Keyframe set manifest (keyframes.toml): 7 KB and ~730 items for the shipped sets.

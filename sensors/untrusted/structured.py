@@ -73,6 +73,8 @@ def parse_toml(text: str, source: Pathish, limits: InputLimits = CONFIG_TOML) ->
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise UntrustedInput(source, f"not valid TOML: {e}") from None
+    except ValueError as e:  # int() refusing an integer of more than 4300 digits, inside tomllib
+        raise UntrustedInput(source, f"not valid TOML: {one_line(str(e), 120)}") from None
     except RecursionError:  # the scan above should make this unreachable; a user error all the same
         raise UntrustedInput(source, "TOML nested too deeply") from None
 
