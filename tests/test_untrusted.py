@@ -755,3 +755,91 @@ def test_hostile_inputs_fail_cleanly_under_a_512_mb_cap() -> None:
     assert report["peak_mb"] < 512, report
     for line in out.stdout.splitlines()[:-1]:
         assert len(line) < 300, line
+
+
+# ---------------------------------------------------------------- generated inputs: only one error type
+
+_TRICKY = ["[", "]", "{", "}", ",", ".", "=", "#", "'", '"', "\\", "\n", "a.b", "ü", " "]
+
+
+def _toml_string(rng: np.random.Generator) -> str:
+    text = "".join(rng.choice(_TRICKY) for _ in range(int(rng.integers(0, 8))))
+    style = int(rng.integers(0, 4))
+    if style == 0:
+        return json.dumps(text.replace("\n", " "))  # a basic string (JSON escapes are TOML escapes here)
+    if style == 1 and "'" not in text and "\n" not in text:
+        return f"'{text}'"
+    if style == 2 and "'''" not in text and not text.endswith("'"):
+        return f"'''{text}'''"
+    body = text.replace("\\", "\\\\").replace('"', '\\"')
+    return f'"""{body}"""'
+
+
+def _toml_value(rng: np.random.Generator, depth: int) -> str:
+    kind = int(rng.integers(0, 5 if depth < 6 else 3))
+    if kind == 0:
+        return str(int(rng.integers(-1000, 1000)))
+    if kind == 1:
+        return repr(float(rng.normal()))
+    if kind == 2:
+        return _toml_string(rng)
+    items = [_toml_value(rng, depth + 1) for _ in range(int(rng.integers(0, 4)))]
+    if kind == 3:
+        return "[" + ", ".join(items) + "]"
+    return "{" + ", ".join(f"{_toml_key(rng)}.i{i} = {v}" for i, v in enumerate(items)) + "}"
+
+
+def _toml_key(rng: np.random.Generator) -> str:
+    return ".".join(rng.choice(["a", "b_c", '"q.[x]"', "'l.{y}'"]) for _ in range(int(rng.integers(1, 4))))
+
+
+def test_generated_toml_the_scan_never_counts_lower_than_the_parser() -> None:
+    rng = np.random.default_rng(7)
+    for case in range(400):
+        lines = ["# comment [[[ {{ . . ' \""] + [f"{_toml_key(rng)}.k{k} = {_toml_value(rng, 1)}" for k in range(4)]
+        if case % 3 == 0:
+            lines.insert(0, f"[{_toml_key(rng)}]")
+        text = "\n".join(lines) + "\n"
+        parsed = tomllib.loads(text)  # the generator writes valid TOML
+        depth, parts, items = toml_shape(text)
+        assert (depth + 2) * parts + depth >= _true_depth(parsed), text  # dotted keys add up at every level
+        assert parse_toml(text, "gen.toml", L.InputLimits(max_bytes=1 << 20, max_depth=64, max_key_parts=64)) == parsed
+
+
+def test_mutated_inputs_give_only_untrusted_input() -> None:
+    """A few thousand byte-level mutations of real TOML, JSON, JPEG, PNG, zstd and lz4: every parser
+    either succeeds or raises UntrustedInput — never another exception."""
+    import lz4.frame
+    import zstandard
+
+    rng = np.random.default_rng(11)
+    raw = (ROOT / "configs" / "demo.toml").read_bytes()
+    seeds: dict[str, bytes] = {
+        "toml": raw, "json": json.dumps({"a": [1, 2.5, {"b": "[x]"}], "c": None}).encode(),
+        "jpeg": _jpeg(40, 30), "png": _png(40, 30),
+        "zstd": zstandard.ZstdCompressor().compress(raw), "lz4": lz4.frame.compress(raw),
+    }
+    for kind, seed in seeds.items():
+        for _ in range(300):
+            data = bytearray(seed)
+            for _ in range(int(rng.integers(1, 6))):
+                at = int(rng.integers(0, len(data) + 1))
+                op = int(rng.integers(0, 3))
+                if op == 0 and at < len(data):
+                    data[at] = int(rng.integers(0, 256))
+                elif op < 2:
+                    del data[at:at + int(rng.integers(1, 40))]
+                else:
+                    data[at:at] = bytes(rng.choice(list(b"[]{}\"'\\.=,#\n\xff\x00"), int(rng.integers(1, 30))))
+            blob = bytes(data)
+            try:
+                if kind == "toml":
+                    parse_toml(blob.decode("utf-8", "replace"), "m.toml")
+                elif kind == "json":
+                    parse_json(blob, "m.json")
+                elif kind in ("jpeg", "png"):
+                    check_image(blob, "m")
+                else:
+                    decompress(blob, kind, len(raw), budget_for(len(blob)), "m")
+            except UntrustedInput as e:
+                assert "\n" not in str(e)

@@ -33,8 +33,10 @@ _NOT_BRACKETS = re.compile(r"[^\[\]{}]++")
 
 
 def toml_shape(text: str) -> tuple[int, int, int]:
-    """(nesting depth, most parts in one dotted key, keys + array items) of TOML ``text``, counted
-    without parsing it; each at least the parser's own count."""
+    """(bracket nesting depth, most parts in one dotted key or table header, keys + array items) of
+    TOML ``text``, counted without parsing it; each at least the parser's own count. The parsed value
+    nests at most (depth + 2) × parts + depth deep (dotted keys in the header and at every level; with
+    the default 16 and 16, 304: within Python's recursion limit for code walking the result)."""
     bare = _bare_toml(text)
     parts = 1 + max((len(seg) - len(seg.replace(".", "")) for seg in _TOML_SEPARATORS.split(bare)), default=0)
     items = sum(bare.count(c) for c in "=,[{")
