@@ -84,6 +84,6 @@ def _safe_repr(value: object) -> str:
 
 def _source(source: str) -> str:
     """A file name or setting as shown: itself when printable and short, else shortened."""
-    if len(source) <= 200 and source.isprintable():
+    if source and len(source) <= 200 and source.isprintable():
         return source
     return shorten(source, 120)

@@ -12,7 +12,7 @@ import os
 import re
 import unicodedata
 
-from sensors.untrusted.errors import UntrustedInput
+from sensors.untrusted.errors import UntrustedInput, shorten
 from sensors.untrusted.limits import UNIT_VALUE_MAX_CHARS
 
 _REFUSED_CATEGORIES = frozenset({"Cc", "Cf", "Cs", "Co", "Zl", "Zp"})
@@ -38,9 +38,9 @@ def systemd_exec_path(path: str | os.PathLike[str], what: str) -> str:
     ``$``: systemd takes the program path literally (``$$`` is not undone there in systemd 252)."""
     text = _checked(path, what)
     if not text.startswith("/"):
-        raise UntrustedInput(what, f"{text!r}: the program of ExecStart= must be an absolute path")
+        raise UntrustedInput(what, f"{shorten(text, 80)}: the program of ExecStart= must be an absolute path")
     if "$" in text:
-        raise UntrustedInput(what, f"{text!r}: a '$' in the program's path cannot be written in ExecStart=")
+        raise UntrustedInput(what, f"{shorten(text, 80)}: a '$' in the program's path cannot be written in ExecStart=")
     return systemd_exec_argument(text, what)
 
 
@@ -51,12 +51,12 @@ def systemd_path(path: str | os.PathLike[str], what: str) -> str:
     path that is relative, holds a ``..`` part or is longer than PATH_MAX is refused."""
     text = _checked(path, what)
     if not text.startswith("/"):
-        raise UntrustedInput(what, f"{text!r}: expected an absolute path")
+        raise UntrustedInput(what, f"{shorten(text, 80)}: expected an absolute path")
     parts = text.split("/")
     if ".." in parts:
-        raise UntrustedInput(what, f"{text!r}: a path with '..' is refused by systemd (not normalized)")
+        raise UntrustedInput(what, f"{shorten(text, 80)}: a path with '..' is refused by systemd (not normalized)")
     if any(len(p.encode()) > 255 for p in parts):
-        raise UntrustedInput(what, f"{text!r}: a part of the path is longer than 255 bytes")
+        raise UntrustedInput(what, f"{shorten(text, 80)}: a part of the path is longer than 255 bytes")
     if text.endswith((" ", "\\")):
         text += "/"  # systemd drops the trailing slash; the space or backslash is kept
     return text.replace("%", "%%")
@@ -67,7 +67,7 @@ def systemd_environment(name: str, value: str, what: str) -> str:
     digit); the value double-quoted with ``\\`` and ``"`` escaped and ``%`` as ``%%`` (``$`` is
     literal in Environment=, so it is left alone)."""
     if not _ENV_NAME.fullmatch(name):
-        raise UntrustedInput(what, f"{name!r} is not an environment variable name")
+        raise UntrustedInput(what, f"{shorten(name, 80)} is not an environment variable name")
     text = _checked(value, what)
     escaped = text.replace("\\", "\\\\").replace('"', '\\"').replace("%", "%%")
     return f'"{name}={escaped}"'
@@ -80,7 +80,7 @@ def systemd_user(name: str, what: str) -> str:
     if text.isascii() and text.isdigit() and int(text) < 2**32 - 1:
         return text
     if not _USER_NAME.fullmatch(text):
-        raise UntrustedInput(what, f"{text!r} is not a user name systemd accepts "
+        raise UntrustedInput(what, f"{shorten(text, 80)} is not a user name systemd accepts "
                                    "(a letter or '_', then letters, digits, '_' or '-', at most 31)")
     return text
 
@@ -90,7 +90,7 @@ def systemd_text(value: str, what: str) -> str:
     dropped (systemd would drop them); a trailing ``\\`` (a line continuation) is refused."""
     text = _checked(value, what).strip(" ")
     if text.endswith("\\"):
-        raise UntrustedInput(what, f"{text!r}: a value may not end in a backslash (it joins the next line)")
+        raise UntrustedInput(what, f"{shorten(text, 80)}: a value may not end in a backslash (it joins the next line)")
     return text.replace("%", "%%")
 
 
