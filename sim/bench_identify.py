@@ -5,7 +5,7 @@ figure at azimuth θpos ∈ {−45°, 0°, 45°} from its front (positive toward
 h ∈ {0, 0.5, 1.0} m above the floor, in the direction pointing at its vertical axis turned by
 θdir ∈ {−45°, 0°, 45°}, weak or strong. Every cell of that grid is repeated with a random walking speed,
 heading and walking phase (time of the push). The pushes act on the figure's outline
-(``sim.body.figure_point``): at h = 0 that is the feet, spread like the drawn legs.
+(``sim.mitake.body.figure_point``): at h = 0 that is the feet, spread like the drawn legs.
 
 What is recorded is only what a viewer sees: the drawn character, sampled at 30 Hz from
 ``BEFORE_S`` before the push (the viewer saw it walking) to ``AFTER_S`` after, in the character's
@@ -141,8 +141,8 @@ def _one_world(cells: list[tuple[int, int, float, bool]], weak: float, strong: f
                world_seed: int, base: CharacterSpec) -> list[Trial]:
     import dataclasses
 
-    from sim.body import figure_point
     from sim.config import WorldConfig
+    from sim.mitake.body import figure_point
     from sim.world import World
 
     cols = math.ceil(math.sqrt(len(cells)))

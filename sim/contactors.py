@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import pybullet as p
 
-from sim.body import GROUP_CONTACTOR, MASK_CONTACTOR
 from sim.inputs import SafeContactor
+from sim.mitake.body import GROUP_CONTACTOR, MASK_CONTACTOR
 from sim.snapshot import ContactEvent
 
 _RADIUS_STEP = 0.01

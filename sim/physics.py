@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pybullet as p
 
-from sim.body import GROUP_FLOOR, MASK_FLOOR
 from sim.config import WorldConfig
+from sim.mitake.body import GROUP_FLOOR, MASK_FLOOR
 
 
 def open_client(config: WorldConfig) -> tuple[int, int]:

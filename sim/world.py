@@ -1,8 +1,8 @@
 """The simulated world: pybullet (DIRECT), the floor, the characters and the people's contactors.
 
 ``World.step(observation, dt)`` accumulates ``dt`` and runs whole control ticks. Each tick, for all
-characters at once (``sim.crowd``): AI (``sim.ai``) → state machine (``sim.states``) → control law
-(``sim.control``), whose impulse is written into each body's velocities with one pybullet call; the
+characters at once (``sim.mitake.crowd``): AI (``sim.mitake.ai``) → state machine (``sim.mitake.states``) → control law
+(``sim.mitake.control``), whose impulse is written into each body's velocities with one pybullet call; the
 contactors are placed once (kinematic, with the people's velocity); then ``n_substeps`` calls of
 ``stepSimulation`` of ``physics_dt`` each (pads and strikes re-applied before each: pybullet clears
 external forces after every call; contact impulses are read per substep, since ``getContactPoints``
@@ -27,24 +27,24 @@ import numpy as np
 import pybullet as p
 
 from interaction.types import BodyObservation
-from sim.ai import Neighbours, Stage, decide, impose_intent, notice_push, separation_velocities
 from sim.articulated.spec import ArticulatedSpec
 from sim.articulated.troupe import ArticulatedCharacters
-from sim.balance import BalanceDesign
-from sim.body import create_body, create_shape, read_states, write_velocities
-from sim.character import CharacterView, snapshots, view
 from sim.config import INTENTS, CharacterSpec, WorldConfig
 from sim.contactors import ContactEpisodes, ContactorPool
-from sim.control import control
-from sim.crowd import STATES, WALK, Crowd
 from sim.frames import Vec3, yaw_quaternion
 from sim.inputs import SafeContactor, SafeImpulse, clean_observation, clean_push, contactors_at
+from sim.mitake.ai import Neighbours, Stage, decide, impose_intent, notice_push, separation_velocities
+from sim.mitake.balance import BalanceDesign
+from sim.mitake.body import create_body, create_shape, read_states, write_velocities
+from sim.mitake.character import CharacterView, snapshots, view
+from sim.mitake.control import control
+from sim.mitake.crowd import STATES, WALK, Crowd
+from sim.mitake.pushes import PAD_PERSON, Push, axis_offset, finished, tick_forces
+from sim.mitake.repair import free_spot, lost_characters, slow_down, stand_again
+from sim.mitake.states import advance, enter_state, quiet, readings
 from sim.physics import open_client
-from sim.pushes import PAD_PERSON, Push, axis_offset, finished, tick_forces
 from sim.quadruped.herd import Quadrupeds, TerrainConfig
-from sim.repair import free_spot, lost_characters, slow_down, stand_again
 from sim.snapshot import ContactEvent, StateChange, WorldSnapshot
-from sim.states import advance, enter_state, quiet, readings
 
 __all__ = ["PAD_PERSON", "World", "WorldCounters"]
 
@@ -169,7 +169,7 @@ class World:
 
     def strike(self, name: str, force: Vec3, duration: float, at: Vec3) -> None:
         """Push character ``name`` with the world-frame ``force`` (N) for ``duration`` s at the point ``at``
-        (its body frame, metres from the centre of mass: x forward, y left, z up; ``sim.body.figure_point``).
+        (its body frame, metres from the centre of mass: x forward, y left, z up; ``sim.mitake.body.figure_point``).
 
         Reported as a ``ContactEvent`` of person ``PAD_PERSON`` when it ends, like a pad's (not for an
         articulated character: its push acts on the link nearest ``at``, and makes it stagger).

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.ai import BEHAVIOUR_STAND_UP, BEHAVIOUR_WALK
 from sim.config import INTENTS, CharacterSpec
-from sim.crowd import STAND_UP, STATES, Crowd
+from sim.mitake.ai import BEHAVIOUR_STAND_UP, BEHAVIOUR_WALK
+from sim.mitake.crowd import STAND_UP, STATES, Crowd
 from sim.snapshot import CharacterSnapshot, CharacterState
 
 

@@ -6,7 +6,7 @@ path, both measured and both avoided here: ``changeDynamics(localInertiaDiagonal
 ``mass=`` zeroes a rigid body's mass (NaN on the next step, which then spreads through the shared
 solver to its neighbours), and ``applyExternalTorque`` uses the shape's own inertia, not the one
 set. The controller therefore never applies torques: it adds its impulse to the body's velocities
-(``write_velocities``, one call per body per control tick; ``sim.control``). Contactors stay
+(``write_velocities``, one call per body per control tick; ``sim.mitake.control``). Contactors stay
 zero-mass multibodies (``sim.contactors``): the solver uses their velocity in contacts with these
 bodies, measured.
 

@@ -22,7 +22,7 @@ Every constant velocity with θ = 0 is an equilibrium with u = 0, so tracking th
 regulation of this error state. (A, B) is controllable (the pendulum through τ, the velocity through f_F).
 
 Gains: the controller runs once per control tick and acts through one *impulse* at the start of the
-tick (``sim.control``: the tick's force and torque times control_dt, added to the body's velocities
+tick (``sim.mitake.control``: the tick's force and torque times control_dt, added to the body's velocities
 with one pybullet call — pybullet clears external forces after every ``stepSimulation``, and its
 ``applyExternalTorque`` ignores the inertia of maximal-coordinate bodies). The model is discretised
 exactly for that input: x⁺ = e^{A dt} (x + B dt u) (``impulse_discretise``), and a discrete LQR is
