@@ -1,6 +1,6 @@
 """The composition root's terrain: ``[terrain]`` → the sim's cube grid, kept in step with what people do.
 
-Three inputs change the grid (sim.quadruped.grid.TerrainGrid, whose rules refuse a cube on a
+Three inputs change the grid (sim.terrain.TerrainGrid, whose rules refuse a cube on a
 character's cells or above ``max_height``):
 
 - the layout (``[terrain] layout`` or ``rows``), built once at the start;
@@ -30,7 +30,7 @@ from jostle.config import JostleConfig
 from jostle.terrain_layout import TerrainSection
 from render.terrain import TerrainView
 from sensors.base import Frame
-from sim.quadruped.grid import Placement, TerrainConfig, TerrainGrid
+from sim.terrain import Placement, TerrainConfig, TerrainGrid
 from sim.world import World
 
 log = logging.getLogger("jostle")

@@ -10,7 +10,7 @@ from jostle.bench_cli import BENCHES
 from sim.config import CharacterSpec, WorldConfig
 from sim.quadruped import bench
 from sim.quadruped.config import QuadrupedSpec
-from sim.quadruped.grid import TerrainConfig
+from sim.terrain import TerrainConfig
 from sim.world import World
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from sim.config import WorldConfig
 from sim.physics import open_client
-from sim.quadruped.grid import CellChange, Placement, TerrainBody, TerrainConfig, TerrainGrid
+from sim.terrain import CellChange, Placement, TerrainBody, TerrainConfig, TerrainGrid
 
 
 def test_config_rejects_bad_fields_naming_them() -> None:

@@ -11,8 +11,8 @@ import pytest
 
 from sim.config import CharacterSpec, WorldConfig
 from sim.quadruped.config import QuadrupedSpec
-from sim.quadruped.grid import Placement, TerrainConfig
 from sim.snapshot import CharacterState, WorldSnapshot
+from sim.terrain import Placement, TerrainConfig
 from sim.world import World
 
 TERRAIN = TerrainConfig(cell=0.3, nx=20, ny=8, origin=(-3.0, -1.2))

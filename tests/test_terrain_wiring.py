@@ -1,5 +1,5 @@
 """[terrain]: the layout reader, the config, and the wiring of layout, hands and depth boxes into the
-sim's cube grid (sim.quadruped.grid.TerrainGrid), up to a headless run that draws the cubes."""
+sim's cube grid (sim.terrain.TerrainGrid), up to a headless run that draws the cubes."""
 
 from __future__ import annotations
 
@@ -18,8 +18,8 @@ from jostle.config import ConfigError, load_config
 from jostle.terrain_layout import LayoutError, TerrainSection, parse_rows, read_layout
 from jostle.terrain_wiring import TerrainWiring, grid_config
 from sensors.record import RecordingWriter
-from sim.quadruped.grid import TerrainGrid
 from sim.snapshot import WorldSnapshot
+from sim.terrain import TerrainGrid
 
 ROOT = Path(__file__).resolve().parent.parent
 STEPS = ROOT / "configs" / "terrain" / "steps.toml"

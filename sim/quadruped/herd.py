@@ -23,7 +23,7 @@ from sim.inputs import SafeContactor
 from sim.quadruped.body import BodyMode, QuadrupedBody
 from sim.quadruped.config import QuadrupedSpec
 from sim.quadruped.gait import Locomotion, Pose
-from sim.quadruped.grid import TerrainBody, TerrainConfig, TerrainGrid
+from sim.terrain import TerrainBody, TerrainConfig, TerrainGrid
 
 __all__ = ["Member", "Quadrupeds", "TerrainConfig"]
 from sim.quadruped.metrics import SlipMeter, penetration

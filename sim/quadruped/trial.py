@@ -21,10 +21,10 @@ from sim.quadruped.body import QuadrupedBody
 from sim.quadruped.config import QuadrupedSpec
 from sim.quadruped.footsteps import MotionModel
 from sim.quadruped.gait import Locomotion
-from sim.quadruped.grid import TerrainBody, TerrainConfig, TerrainGrid
 from sim.quadruped.metrics import SlipMeter, penetration
 from sim.quadruped.planner import CostField, PlanCosts, PlanStatus
 from sim.quadruped.skeleton import Skeleton, load_laikago
+from sim.terrain import TerrainBody, TerrainConfig, TerrainGrid
 
 
 @dataclass
