@@ -138,21 +138,16 @@ def attach_terrain(config: JostleConfig, world: World) -> TerrainWiring | None:
     section = config.terrain
     if section is None:
         return None
-    herd = world.terrain(grid_config(section))
-    crowd = world.crowd
-    for name, xy in zip(crowd.names, crowd.pos[:, :2], strict=True):
-        herd.grid.reserve(name, herd.grid.cells_within(float(xy[0]), float(xy[1]), _CHARACTER_RADIUS_M))
+    grid = world.add_terrain(grid_config(section))
     calibration = None
     for ob in config.observers:
         if ob.name == section.boxes and ob.calibration is not None:
             calibration = DepthCalibration.load(ob.calibration)
-    wiring = TerrainWiring.build(section, herd.grid, calibration)
+    wiring = TerrainWiring.build(section, grid, calibration)
     for group in config.quadrupeds:
         q = group.table
         path = np.asarray(q.waypoints, dtype=float).reshape(-1, 2)
-        herd.add(group.spec, (q.position[0], q.position[1]), math.radians(q.heading_deg), world.t,
-                 waypoints=[(float(x), float(y)) for x, y in path] if len(path) else None, taken=crowd.names)
+        world.add_character(group.spec, (q.position[0], q.position[1]), math.radians(q.heading_deg),
+                            waypoints=[(float(x), float(y)) for x, y in path] if len(path) else None)
     return wiring
 
-
-_CHARACTER_RADIUS_M = 0.25  # no cube within this of a standing character's centre (as sim.quadruped.herd)

@@ -21,7 +21,7 @@ impulse ∫F dt, the peak force and whether the impulse reached the character's 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import pybullet as p
@@ -105,7 +105,7 @@ class ContactorPool:
                     self._parked.add(body)
         self.active = active
 
-    def read_forces(self, characters: dict[int, str]) -> dict[tuple[str, int], float]:
+    def read_forces(self, characters: Mapping[int, str]) -> dict[tuple[str, int], float]:
         """Force (N, normal and friction) each person puts on each character in the last physics step."""
         forces: dict[tuple[str, int], float] = {}
         for body, person in self.active.items():

@@ -65,6 +65,9 @@ class CharacterSnapshot:
     links: tuple[LinkPose, ...] = ()  # articulated kinds only: every link's world pose (render draws these)
 
 
+PAD_PERSON = -1  # ContactEvent.person for pads and strikes (they carry no person id)
+
+
 @dataclass(frozen=True, slots=True)
 class ContactEvent:
     """One contact episode between a person and a character, reported when it ends.

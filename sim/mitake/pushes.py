@@ -15,9 +15,7 @@ import numpy as np
 
 from sim.frames import Vec3
 from sim.mitake.crowd import Crowd
-from sim.snapshot import ContactEvent
-
-PAD_PERSON = -1  # ContactEvent.person for pads and strikes (they carry no person id)
+from sim.snapshot import PAD_PERSON, ContactEvent
 
 
 @dataclass(slots=True)

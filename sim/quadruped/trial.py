@@ -1,7 +1,7 @@
 """One quadruped walking a cube terrain to a goal, on its own pybullet client (tests and the bench).
 
 No Mitake characters, no people: the locomotion, its pybullet body and the terrain's twin, updated at
-``control_dt`` the way ``Quadrupeds.tick`` does, with the readings of the issue taken on pybullet's own
+``control_dt`` the way ``Quadrupeds.before_tick`` does, with the readings of the issue taken on pybullet's own
 toe links every update (penetration into the cubes, slip of stance feet) and the cost of an update.
 """
 
