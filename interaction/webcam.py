@@ -35,7 +35,7 @@ from interaction.pose import Keypoints, PoseModel, PoseModelError, PoseTracker
 from interaction.pose_models import default_model_dir, find_models
 from interaction.silhouette import BackgroundModel
 from interaction.silhouette_parts import PersonBlob, feet, join_fragments, split_people
-from interaction.types import BodyObservation, Contactor
+from interaction.types import BodyObservation, Contactor, Silhouette
 from interaction.webcam_config import FlowPreset, WebcamObserverConfig
 from sensors.base import ColorImage, Frame
 
@@ -194,8 +194,9 @@ class WebcamObserver:
         ids = self._tracker.assign([b.centroid for b in blobs])  # also ages the people not seen
         if self._pose is not None:
             self._pose.forget(set(ids))
+        seen = Silhouette(self.silhouette, self._cal)  # type: ignore[arg-type]  # (set just above)
         if not blobs:
-            return BodyObservation(t=frame.t)
+            return BodyObservation(t=frame.t, silhouette=seen)
         born = self._tracker.born
 
         dt = frame.t - prev_t if prev_t is not None else 0.0
@@ -207,7 +208,7 @@ class WebcamObserver:
             contactors.extend(self._contactors(pid, person, people, 0.0 if pid in born else dt))
         if self._pose is not None:
             contactors.extend(self._limb_contactors(bgr, ids, blobs, people, frame.t, dt, born))
-        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(blobs))
+        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(blobs), silhouette=seen)
 
     # ------------------------------------------------------------ internals
 

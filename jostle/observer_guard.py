@@ -23,6 +23,7 @@ Times are the loop's clock, so on a SimClock the restarts are as deterministic a
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import traceback
@@ -122,14 +123,6 @@ class ObserverGuard:
         """The observer now running (None while restarting)."""
         return self._observer
 
-    @property
-    def calibration(self) -> object | None:
-        return getattr(self._observer, "calibration", None)
-
-    @property
-    def silhouette(self) -> object | None:
-        return getattr(self._observer, "silhouette", None)
-
     def health(self) -> ObserverHealth:
         running = self._observer is not None
         return ObserverHealth(
@@ -171,7 +164,7 @@ class ObserverGuard:
             log.warning("observer %r: dropped a contactor or impulse with NaN or infinite numbers "
                         "(counted from now on in the health report, not logged again)", self.name)
         self._dropped += dropped
-        return BodyObservation(t=obs.t, contactors=contactors, impulses=impulses, people=obs.people)
+        return dataclasses.replace(obs, contactors=contactors, impulses=impulses)
 
     def _backoff(self) -> float:
         return min(self.first_backoff_s * 2.0 ** max(self._in_a_row - 1, 0), self.max_backoff_s)

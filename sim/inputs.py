@@ -6,9 +6,10 @@ Nothing from an observation reaches pybullet without passing through ``clean_obs
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
-from interaction.types import BodyObservation
+from interaction.types import BodyObservation, TerrainReport
 from sim.config import WorldConfig
 from sim.frames import Vec3
 
@@ -36,7 +37,8 @@ class SafeImpulse:
 class CleanedObservation:
     contactors: tuple[SafeContactor, ...]
     impulses: tuple[SafeImpulse, ...]
-    rejected: int  # items dropped (position or force unusable)
+    terrain: TerrainReport | None  # its cells whole numbers (a box's cubes ≥ 0)
+    rejected: int  # items dropped (position, force or cell unusable)
     clamped: int  # values replaced or limited
 
 
@@ -87,7 +89,23 @@ def clean_observation(obs: BodyObservation, config: WorldConfig) -> CleanedObser
         clamped += cuts
         pos = (float(i.position[0]), float(i.position[1]), float(i.position[2]))
         impulses.append(SafeImpulse(pos, force, duration, str(i.source)))
-    return CleanedObservation(tuple(contactors), tuple(impulses), rejected, clamped)
+    terrain, dropped = _clean_terrain(obs.terrain)
+    return CleanedObservation(tuple(contactors), tuple(impulses), terrain, rejected + dropped, clamped)
+
+
+def _whole(*values: object) -> bool:
+    return all(isinstance(v, numbers.Integral) and not isinstance(v, bool) for v in values)
+
+
+def _clean_terrain(report: TerrainReport | None) -> tuple[TerrainReport | None, int]:
+    """The report with only whole-number cells (a box of ≥ 0 cubes), and how many items were dropped."""
+    if report is None:
+        return None, 0
+    placements = tuple((int(c[0]), int(c[1])) for c in report.placements if len(c) == 2 and _whole(*c))
+    boxes = None if report.boxes is None else \
+        tuple((int(b[0]), int(b[1]), int(b[2])) for b in report.boxes if len(b) == 3 and _whole(*b) and b[2] >= 0)
+    dropped = len(report.placements) - len(placements) + (0 if boxes is None else len(report.boxes or ()) - len(boxes))
+    return TerrainReport(placements, boxes), dropped
 
 
 def clean_push(force: Vec3, duration: float, config: WorldConfig) -> tuple[Vec3, float, int] | None:

@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections import Counter
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from types import EllipsisType
 from typing import Any
 
 import numpy as np
@@ -41,6 +43,7 @@ from sim.quadruped.config import QuadrupedSpec
 from sim.quadruped.herd import Quadrupeds
 from sim.snapshot import ContactEvent, StateChange, WorldSnapshot
 from sim.terrain import TerrainBody, TerrainConfig, TerrainGrid
+from sim.terrain_edits import TerrainEdits
 
 __all__ = ["World", "WorldCounters"]
 
@@ -77,6 +80,8 @@ class World:
         self._counts = {f: 0 for f in WorldCounters.__dataclass_fields__}
         self.physics_wall_s = 0.0  # wall seconds spent in the physics substeps (for benchmarks)
         self._terrain: TerrainGrid | None = None
+        self._terrain_edits: TerrainEdits | None = None
+        self._intent_all: str | None = None  # imposed on every Mitake character (attract mode), None: their own
         self._mitake = MitakeCharacters(client, config, rng)
         stage = (config.x_min, config.x_max, config.y_min, config.y_max)
         self._populations: dict[str, Population] = {
@@ -115,9 +120,15 @@ class World:
         """The cube grid every character collides with (None until ``add_terrain``); read it."""
         return self._terrain
 
-    def add_terrain(self, config: TerrainConfig) -> TerrainGrid:
-        """Lay the cube grid (with its pybullet twin) on the floor; the cells under the characters already
-        standing are reserved (no cube goes there). Quadrupeds walk on it: add them after it."""
+    @property
+    def terrain_counts(self) -> Counter[str]:
+        """What became of the terrain's layout and the people's changes (``sim.terrain_edits``)."""
+        return Counter() if self._terrain_edits is None else Counter(self._terrain_edits.counts)
+
+    def add_terrain(self, config: TerrainConfig, layout: Iterable[tuple[int, int, int]] = ()) -> TerrainGrid:
+        """Lay the cube grid (with its pybullet twin) on the floor and build ``layout`` ((ix, iy, cubes) per
+        column) on it, bar the cells under the characters already standing (no cube goes there).
+        Quadrupeds walk on it: add them after it. Afterwards it changes through ``step``'s observations."""
         client = self._require_open()
         if self._terrain is not None:
             raise ValueError("terrain: the world has one already")
@@ -125,6 +136,8 @@ class World:
         TerrainBody(client, grid)
         self._populations["quadruped"] = Quadrupeds(client, grid)
         self._reserve(grid)
+        self._terrain_edits = TerrainEdits(grid)
+        self._terrain_edits.layout(layout)
         return grid
 
     def add_character(self, spec: CharacterSpec | ArticulatedSpec | QuadrupedSpec, position: tuple[float, float],
@@ -152,11 +165,6 @@ class World:
                                     **options)
         return name
 
-    def set_intent_all(self, intent: str | None) -> None:
-        """Every Mitake character follows ``intent`` instead of its own (pushes and falls still come first);
-        ``None``: each follows the intent it was added with again."""
-        self._mitake.set_intent_all(intent)
-
     def strike(self, name: str, force: Vec3, duration: float, at: Vec3) -> None:
         """Push character ``name`` with the world-frame ``force`` (N) for ``duration`` s at the point ``at``
         (its body frame, metres from the centre of mass: x forward, y left, z up; ``sim.mitake.body.figure_point``).
@@ -172,9 +180,17 @@ class World:
         self._counts["clamped_inputs"] += cut
         self._owner(name).strike(name, force, duration, at, self.t)
 
-    def step(self, observation: BodyObservation | None, dt: float) -> WorldSnapshot:
-        """Advance by ``dt`` seconds of loop time (whole control ticks; the remainder waits)."""
+    def step(self, observation: BodyObservation | None, dt: float, *,
+             intent_all: str | None | EllipsisType = ...) -> WorldSnapshot:
+        """Advance by ``dt`` seconds of loop time (whole control ticks; the remainder waits).
+
+        ``intent_all``: from now on every Mitake character follows this intent instead of its own (attract
+        mode; pushes and falls still come first); ``None``: each its own again; ``...``: as before.
+        """
         self._require_open()
+        if intent_all is not ... and intent_all != self._intent_all:
+            self._mitake.set_intent_all(intent_all)
+            self._intent_all = intent_all
         if not (isinstance(dt, int | float) and math.isfinite(dt) and dt >= 0.0):
             self._counts["clamped_inputs"] += 1
             dt = 0.0
@@ -251,6 +267,8 @@ class World:
         self._counts["clamped_inputs"] += cleaned.clamped
         self._contactors = cleaned.contactors
         self._contactors_t = self.t
+        if cleaned.terrain is not None and self._terrain_edits is not None:
+            self._terrain_edits.apply(cleaned.terrain)
         now = self.t
         self._seen = {imp: until for imp, until in self._seen.items() if until > now}
         for imp in cleaned.impulses:
