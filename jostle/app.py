@@ -152,7 +152,7 @@ class App:
                 fullscreen=(opts.mode == "kiosk"),
                 style=RenderStyle(camera=cfg.render.camera, colours=cfg.render.colours, look=cfg.render.look),
                 stage_x=(cfg.world.x_min, cfg.world.x_max),
-                com_fraction={g.spec.name: g.spec.com_height / g.spec.height for g in cfg.characters} or 0.5,
+                com_fraction=None,  # each character's from its snapshot
                 exit_keys=cfg.kiosk.exit_keys,
             )
             if out_dir is not None:

@@ -79,7 +79,7 @@ class Renderer:
     ``style``: camera, colours and what is drawn (``render.style``); ``camera``/``samples``/
     ``flash_newtons`` override it. ``com_fraction``: height of the sim body's centre of mass above its
     base over its height (``CharacterSpec.com_height / height``), so the figures' feet meet the floor;
-    one for all, or by character name or kind (key ``"*"`` for the rest).
+    one for all, or by character name or kind (key ``"*"`` for the rest), or None: its snapshot's ``com_height``.
     """
 
     def __init__(
@@ -93,7 +93,7 @@ class Renderer:
         camera: Camera | None = None,
         style: RenderStyle | None = None,
         stage_x: tuple[float, float] = (-3.0, 3.0),
-        com_fraction: float | Mapping[str, float] = 0.5,
+        com_fraction: float | Mapping[str, float] | None = 0.5,
         flash_newtons: float | None = None,
         exit_keys: str | None = None,
     ) -> None:
@@ -106,7 +106,7 @@ class Renderer:
             samples = look.samples if look.samples >= 0 else (0 if headless else 4)
         if samples not in (0, 2, 4, 8):
             raise ValueError(f"samples: expected 0, 2, 4 or 8, got {samples!r}")
-        fractions = com_fraction.values() if isinstance(com_fraction, Mapping) else [com_fraction]
+        fractions = com_fraction.values() if isinstance(com_fraction, Mapping) else [0.5 if com_fraction is None else com_fraction]
         if not all(0.0 < f < 1.0 for f in fractions):
             raise ValueError(f"com_fraction: expected fractions in (0, 1), got {com_fraction!r}")
         self.width, self.height, self.headless = width, height, headless
@@ -334,8 +334,8 @@ class Renderer:
 
     def _com_fraction(self, c: CharacterSnapshot) -> float:
         f = self.com_fraction
-        if not isinstance(f, Mapping):
-            return float(f)
+        if not isinstance(f, Mapping):  # None: from the snapshot
+            return float(f) if f is not None else 0.5 if c.com_height is None else c.com_height / c.height
         return float(f.get(c.name, f.get(getattr(c, "kind", ""), f.get("*", 0.5))))
 
     @staticmethod
