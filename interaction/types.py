@@ -6,6 +6,7 @@ right; y away from the audience (into the screen). The floor is z = 0.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -16,6 +17,12 @@ if TYPE_CHECKING:
 
 Vec3 = tuple[float, float, float]
 Cell = tuple[int, int]  # (ix, iy) of the terrain's floor grid
+
+
+def finite(*values: object) -> bool:
+    """True when every value is a real number (int or float, not bool-like text) and finite: the one test
+    of numbers in observations (``jostle.observer_guard`` drops on it, ``sim.inputs`` rejects or clamps)."""
+    return all(isinstance(v, int | float) and math.isfinite(v) for v in values)
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,6 +42,10 @@ class Contactor:
     radius: float
     half_depth: float = 0.0
 
+    @property
+    def finite(self) -> bool:
+        return finite(*self.position, *self.velocity, self.radius, self.half_depth)
+
 
 @dataclass(frozen=True, slots=True)
 class Impulse:
@@ -44,6 +55,10 @@ class Impulse:
     force: Vec3
     duration: float
     source: str
+
+    @property
+    def finite(self) -> bool:
+        return finite(*self.position, *self.force, self.duration)
 
 
 @dataclass(frozen=True, slots=True, eq=False)

@@ -15,7 +15,8 @@
 Everything that comes out of a (healthy) observer is checked too: a contactor or impulse carrying
 a NaN or infinite number is dropped and counted (``dropped_non_finite``), and pad samples carrying
 non-finite newtons are counted on the way in (``non_finite_inputs``; the pads observer reads them as
-0 N). The sim checks its input again (``sim.inputs``), so nothing non-finite reaches pybullet.
+0 N). The test is ``interaction.types.finite``; the sim applies the same test to whatever reaches it
+(``sim.inputs``: ``World.step`` is also called directly), so nothing non-finite reaches pybullet.
 
 Times are the loop's clock, so on a SimClock the restarts are as deterministic as the rest.
 :meth:`ObserverGuard.health` returns the counters as a frozen :class:`ObserverHealth`.
@@ -25,13 +26,12 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
-from interaction.types import BodyObservation, Contactor, Impulse
+from interaction.types import BodyObservation, finite
 from jostle.observers import Observer
 from sensors.base import Frame, PadSample
 from sensors.clock import Clock
@@ -54,18 +54,6 @@ class ObserverHealth:
     non_finite_inputs: int  # pad samples with NaN or infinite newtons handed to the observer
     last_error: str  # one line: "ValueError: ..." ("" if none yet)
     retry_in_s: float  # seconds until the next rebuild (0 while running)
-
-
-def _finite(values: tuple[float, ...]) -> bool:
-    return all(isinstance(v, int | float) and math.isfinite(v) for v in values)
-
-
-def _contactor_ok(c: Contactor) -> bool:
-    return _finite((*c.position, *c.velocity, c.radius, c.half_depth))
-
-
-def _impulse_ok(i: Impulse) -> bool:
-    return _finite((*i.position, *i.force, i.duration))
 
 
 def _signature(e: BaseException) -> tuple[str, str, int]:
@@ -145,7 +133,7 @@ class ObserverGuard:
         elif self._in_a_row and now - self._since >= self.healthy_after_s:
             self._in_a_row = 0  # ran long enough: the next crash backs off from the start again
         payload = frame.payload
-        if isinstance(payload, PadSample) and not _finite(payload.newtons):
+        if isinstance(payload, PadSample) and not finite(*payload.newtons):
             self._non_finite_in += 1
         try:
             obs = self._observer.observe(frame)
@@ -155,8 +143,8 @@ class ObserverGuard:
         return self._checked(obs)
 
     def _checked(self, obs: BodyObservation) -> BodyObservation:
-        contactors = tuple(c for c in obs.contactors if _contactor_ok(c))
-        impulses = tuple(i for i in obs.impulses if _impulse_ok(i))
+        contactors = tuple(c for c in obs.contactors if c.finite)
+        impulses = tuple(i for i in obs.impulses if i.finite)
         dropped = len(obs.contactors) - len(contactors) + len(obs.impulses) - len(impulses)
         if not dropped:
             return obs

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import pybullet as p
 
-from sim.inputs import SafeContactor
+from interaction.types import Contactor
 from sim.mitake.body import GROUP_CONTACTOR, MASK_CONTACTOR
 from sim.snapshot import ContactEvent
 
@@ -79,10 +79,10 @@ class ContactorPool:
         return body
 
     @staticmethod
-    def shape_key(c: SafeContactor) -> ShapeKey:
+    def shape_key(c: Contactor) -> ShapeKey:
         return max(1, round(c.radius / _RADIUS_STEP)), max(0, round(c.half_depth / _DEPTH_STEP))
 
-    def place(self, contactors: Sequence[SafeContactor]) -> None:
+    def place(self, contactors: Sequence[Contactor]) -> None:
         """Move the pool's bodies onto ``contactors`` (with their velocities); park the rest."""
         used: dict[ShapeKey, int] = {}
         active: dict[int, int] = {}

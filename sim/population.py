@@ -14,7 +14,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from sim.inputs import SafeContactor, SafeImpulse
+from interaction.types import Contactor, Impulse
 from sim.snapshot import CharacterSnapshot, ContactEvent, StateChange
 from sim.terrain import TerrainGrid
 
@@ -30,7 +30,7 @@ class Tick:
     t: float  # the tick's start
     dt: float  # its length (the control step)
     t_end: float  # the world's time once its physics has run (``World.t``; set before ``after_tick``)
-    contactors: tuple[SafeContactor, ...]  # the people's contactors during it
+    contactors: tuple[Contactor, ...]  # the people's contactors during it
     terrain: TerrainGrid | None  # the world's cube grid (read it; only the world changes it)
     forget: Callable[[str], None]  # drop a character's open contact episodes (it was put back)
     changes: list[StateChange] = field(default_factory=list)
@@ -66,7 +66,7 @@ class Population(Protocol):
         """Distance (m) to its nearest character a pad's impulse may act on; None: it takes none."""
         ...
 
-    def impulse(self, impulse: SafeImpulse, t: float) -> None:
+    def impulse(self, impulse: Impulse, t: float) -> None:
         """A pad's impulse for the nearest of its characters (after ``reach`` said it is the nearest)."""
         ...
 

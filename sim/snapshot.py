@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from enum import StrEnum
 
-Vec3 = tuple[float, float, float]
+from interaction.types import Vec3
+
 Quat = tuple[float, float, float, float]  # x, y, z, w (pybullet's order)
 
 

@@ -27,13 +27,12 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
-from interaction.types import BodyObservation
+from interaction.types import BodyObservation, Contactor, Impulse, Vec3
 from sim.articulated.spec import ArticulatedSpec
 from sim.articulated.troupe import ArticulatedCharacters
 from sim.config import CharacterSpec, WorldConfig
 from sim.contactors import ContactEpisodes, ContactorPool
-from sim.frames import Vec3
-from sim.inputs import SafeContactor, SafeImpulse, clean_observation, clean_push, contactors_at
+from sim.inputs import clean_observation, clean_push, contactors_at
 from sim.mitake.character import CharacterView
 from sim.mitake.crowd import Crowd
 from sim.mitake.population import MitakeCharacters
@@ -74,9 +73,9 @@ class World:
         self._episodes = ContactEpisodes(config.contact_episode_gap_s)
         self._ticks = 0
         self._pending = 0.0
-        self._contactors: tuple[SafeContactor, ...] = ()
+        self._contactors: tuple[Contactor, ...] = ()
         self._contactors_t = 0.0
-        self._seen: dict[SafeImpulse, float] = {}  # impulses applied, until when a repeat is the same one
+        self._seen: dict[Impulse, float] = {}  # impulses applied, until when a repeat is the same one
         self._counts = {f: 0 for f in WorldCounters.__dataclass_fields__}
         self.physics_wall_s = 0.0  # wall seconds spent in the physics substeps (for benchmarks)
         self._terrain: TerrainGrid | None = None

@@ -26,8 +26,9 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import pybullet as p
 
+from interaction.types import Vec3
 from sim.articulated.joint_limit import limit_ranges
-from sim.articulated.skeleton import ArticulatedLink, ArticulatedSkeleton, Quat, Vec3
+from sim.articulated.skeleton import ArticulatedLink, ArticulatedSkeleton, Quat
 from sim.mitake.body import GROUP_CHARACTER, MASK_CHARACTER
 from sim.motion import quaternion as quat
 

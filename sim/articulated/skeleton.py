@@ -50,7 +50,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-Vec3 = tuple[float, float, float]
+from interaction.types import Vec3
+
 Quat = tuple[float, float, float, float]  # x, y, z, w
 
 JointKind = Literal["root", "ball", "universal", "hinge", "fixed"]

@@ -17,12 +17,12 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
+from interaction.types import Impulse
 from sim.articulated import balance as bal
 from sim.articulated.character import ArticulatedCharacter
 from sim.articulated.recovery import any_recovering, substeps_of
 from sim.articulated.skeleton import ArticulatedSkeleton, deepmimic_humanoid
 from sim.articulated.spec import ArticulatedSpec
-from sim.inputs import SafeImpulse
 from sim.population import Footprint, Tick
 from sim.snapshot import CharacterSnapshot, CharacterState, ContactEvent, StateChange
 
@@ -69,7 +69,7 @@ class ArticulatedCharacters:
     def reach(self, position: tuple[float, float, float]) -> float | None:
         return None
 
-    def impulse(self, impulse: SafeImpulse, t: float) -> None:
+    def impulse(self, impulse: Impulse, t: float) -> None:
         raise ValueError("articulated characters take no pad impulses")
 
     def before_tick(self, tick: Tick) -> None:

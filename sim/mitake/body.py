@@ -23,8 +23,9 @@ import numpy as np
 import pybullet as p
 from numpy.typing import NDArray
 
+from interaction.types import Vec3
 from sim.config import CharacterSpec
-from sim.frames import Quat, Vec3
+from sim.frames import Quat
 
 Array = NDArray[np.float64]
 

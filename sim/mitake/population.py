@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
+from interaction.types import Contactor, Impulse, Vec3
 from sim.config import INTENTS, CharacterSpec, WorldConfig
-from sim.frames import Vec3, yaw_quaternion
-from sim.inputs import SafeContactor, SafeImpulse
+from sim.frames import yaw_quaternion
 from sim.mitake.ai import Neighbours, Stage, decide, impose_intent, notice_push, separation_velocities
 from sim.mitake.balance import BalanceDesign
 from sim.mitake.body import create_body, create_shape, read_states, write_velocities
@@ -115,7 +115,7 @@ class MitakeCharacters:
             return None
         return float(np.min(np.hypot(crowd.pos[:, 0] - position[0], crowd.pos[:, 1] - position[1])))
 
-    def impulse(self, impulse: SafeImpulse, t: float) -> None:
+    def impulse(self, impulse: Impulse, t: float) -> None:
         crowd = self.crowd
         row = int(np.argmin(np.hypot(crowd.pos[:, 0] - impulse.position[0], crowd.pos[:, 1] - impulse.position[1])))
         self._pushes.append(Push(row, impulse.force, axis_offset(crowd, row, impulse.position[2]), impulse.duration,
@@ -179,7 +179,7 @@ class MitakeCharacters:
         return {**self._counts, "non_finite_controls": int(self.crowd.non_finite.sum())}
 
     # ------------------------------------------------------------------ inside a tick
-    def _think(self, t0: float, contactors: tuple[SafeContactor, ...], changes: list[StateChange]) -> None:
+    def _think(self, t0: float, contactors: tuple[Contactor, ...], changes: list[StateChange]) -> None:
         """AI, state machine and control of every character; writes the control impulses."""
         cfg, crowd, client = self._config, self.crowd, self._client
         c = crowd.cols
@@ -212,7 +212,7 @@ class MitakeCharacters:
             write_velocities(client, bodies, crowd.vel[rows] + imp.dv[rows], crowd.ang[rows] + imp.dw[rows])
         crowd.vz_after = crowd.vel[:, 2] + imp.dv[:, 2]
 
-    def _notice(self, ev: ContactEvent, contactors: tuple[SafeContactor, ...], t: float) -> None:
+    def _notice(self, ev: ContactEvent, contactors: tuple[Contactor, ...], t: float) -> None:
         if not ev.push:
             return
         crowd = self.crowd

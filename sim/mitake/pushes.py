@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.frames import Vec3
+from interaction.types import Vec3
 from sim.mitake.crowd import Crowd
 from sim.snapshot import PAD_PERSON, ContactEvent
 

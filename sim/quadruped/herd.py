@@ -20,7 +20,7 @@ import numpy as np
 import pybullet as p
 from numpy.typing import NDArray
 
-from sim.inputs import SafeContactor, SafeImpulse
+from interaction.types import Contactor, Impulse
 from sim.population import Footprint, Tick
 from sim.quadruped.body import BodyMode, QuadrupedBody
 from sim.quadruped.config import QuadrupedSpec
@@ -96,7 +96,7 @@ class Quadrupeds:
     def reach(self, position: tuple[float, float, float]) -> float | None:
         return None
 
-    def impulse(self, impulse: SafeImpulse, t: float) -> None:
+    def impulse(self, impulse: Impulse, t: float) -> None:
         raise ValueError("quadrupeds take no pad impulses")
 
     def strike(self, name: str, force: tuple[float, float, float], duration: float,
@@ -160,7 +160,7 @@ class Quadrupeds:
                 m.loco.set_goal(None, t)
                 m.slip.reset()
 
-    def _walk(self, name: str, m: Member, t: float, dt: float, touches: Sequence[SafeContactor],
+    def _walk(self, name: str, m: Member, t: float, dt: float, touches: Sequence[Contactor],
               people: dict[int, Array]) -> None:
         loco, spec = m.loco, m.spec
         self.grid.reserve(name, self.grid.cells_within(float(loco.xy[0]), float(loco.xy[1]),
@@ -248,7 +248,7 @@ class Quadrupeds:
         return max((m.penetration_max for m in self.members.values()), default=0.0)
 
 
-def _people(touches: Sequence[SafeContactor]) -> dict[int, Array]:
+def _people(touches: Sequence[Contactor]) -> dict[int, Array]:
     acc: dict[int, list[tuple[float, float]]] = {}
     for c in touches:
         acc.setdefault(c.person, []).append((c.position[0], c.position[1]))
