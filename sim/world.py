@@ -162,6 +162,8 @@ class World:
         name = self._unique_name(spec.name)
         self._populations[kind].add(name, spec, (float(position[0]), float(position[1])), float(heading), self.t,
                                     **options)
+        if self._terrain is not None:  # no cube goes under it from now on
+            self._reserve(self._terrain)
         return name
 
     def strike(self, name: str, force: Vec3, duration: float, at: Vec3) -> None:
