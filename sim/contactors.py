@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import pybullet as p
 
 from interaction.types import Contactor
-from sim.mitake.body import GROUP_CONTACTOR, MASK_CONTACTOR
+from sim.physics import GROUP_CONTACTOR, MASK_CONTACTOR
 from sim.snapshot import ContactEvent
 
 _RADIUS_STEP = 0.01

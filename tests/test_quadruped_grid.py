@@ -110,7 +110,7 @@ def test_pybullet_body_follows_the_grid() -> None:
         # a ball dropped on the cube rests on its top face
         ball = p.createMultiBody(1.0, p.createCollisionShape(p.GEOM_SPHERE, radius=0.05, physicsClientId=client),
                                  -1, (x2, y2, 0.6), physicsClientId=client)
-        from sim.mitake.body import GROUP_CHARACTER, MASK_CHARACTER
+        from sim.physics import GROUP_CHARACTER, MASK_CHARACTER
         p.setCollisionFilterGroupMask(ball, -1, GROUP_CHARACTER, MASK_CHARACTER, physicsClientId=client)
         for _ in range(240):
             p.stepSimulation(physicsClientId=client)

@@ -24,16 +24,9 @@ from numpy.typing import NDArray
 from interaction.types import Vec3
 from sim.config import CharacterSpec
 from sim.frames import Quat
+from sim.physics import GROUP_CHARACTER, MASK_CHARACTER
 
 Array = NDArray[np.float64]
-
-# collision groups: bit masks (group, mask); a pair collides when each one's group is in the other's mask
-GROUP_FLOOR = 1
-GROUP_CHARACTER = 2
-GROUP_CONTACTOR = 4
-MASK_FLOOR = GROUP_CHARACTER
-MASK_CHARACTER = GROUP_FLOOR | GROUP_CHARACTER | GROUP_CONTACTOR
-MASK_CONTACTOR = GROUP_CHARACTER
 
 _AROUND = 16  # vertices per horizontal ring of the hull
 _RINGS_BELOW = 9
