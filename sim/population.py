@@ -51,7 +51,8 @@ class Population(Protocol):
 
     def add(self, name: str, spec: Any, position: tuple[float, float], heading: float, t: float,
             **options: Any) -> None:
-        """Stand a character of this kind (``spec``'s type) at ``position`` facing ``heading`` (radians)."""
+        """Stand a character of this kind (``spec``'s type) at ``position`` facing ``heading`` (radians);
+        ``options`` (``intent``, ``waypoints``, ``goal``): it takes those it knows and ignores the rest."""
         ...
 
     def footprints(self) -> Iterable[Footprint]:

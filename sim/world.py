@@ -22,7 +22,6 @@ from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from types import EllipsisType
-from typing import Any
 
 import numpy as np
 import pybullet as p
@@ -152,16 +151,11 @@ class World:
         if len(position) != 2 or not all(math.isfinite(v) for v in (*position, heading)):
             raise ValueError(f"position: expected finite (x, y) and heading, got {position!r}, {heading!r}")
         kind = self._kind_of_spec[type(spec)]
-        if kind not in self._populations:
+        if kind not in self._populations:  # (the quadrupeds come with the terrain)
             raise ValueError(f"{spec.name}: a {kind} needs the terrain (World.add_terrain) first")
-        options: dict[str, Any] = {"intent": intent, "waypoints": waypoints}
-        if kind == "quadruped":
-            options = {"goal": goal, "waypoints": waypoints}
-        elif kind == "articulated":
-            options = {}
-        name = self._unique_name(spec.name)
+        name = self._unique_name(spec.name)  # each kind takes the options it knows
         self._populations[kind].add(name, spec, (float(position[0]), float(position[1])), float(heading), self.t,
-                                    **options)
+                                    intent=intent, waypoints=waypoints, goal=goal)
         if self._terrain is not None:  # no cube goes under it from now on
             self._reserve(self._terrain)
         return name

@@ -52,7 +52,7 @@ class ArticulatedCharacters:
 
     def add(self, name: str, spec: Any, position: tuple[float, float], heading: float, t: float,
             **options: Any) -> None:
-        """It walks its clip: no options."""
+        """It walks its clip: it takes no options."""
         assert isinstance(spec, ArticulatedSpec)
         if spec.skeleton not in self._skeletons:
             self._skeletons[spec.skeleton] = deepmimic_humanoid()
