@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
-from interaction.types import BodyObservation, Contactor
+from interaction.types import BodyObservation, Contactor, TerrainReport
 
 __all__ = ["FusionConfig", "SensorFusion", "ID_STRIDE"]
 
@@ -64,7 +64,9 @@ class SensorFusion:
         self.dropped = frozenset(dropped)
         contactors = tuple(c for cs in renamed for c in cs if c.person not in dropped)
         return BodyObservation(t=t, contactors=contactors, impulses=tuple(i for o in parts for i in o.impulses),
-                               people=people)
+                               people=people,
+                               silhouette=next((o.silhouette for o in parts if o.silhouette is not None), None),
+                               terrain=TerrainReport.merge([o.terrain for o in parts]))
 
 
 def _centre(cs: list[Contactor]) -> tuple[float, float]:

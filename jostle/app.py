@@ -11,7 +11,7 @@ import dataclasses
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
@@ -19,7 +19,7 @@ import numpy as np
 
 from interaction.fusion import SensorFusion
 from interaction.observers import Observer, observer_types
-from interaction.types import BodyObservation
+from interaction.types import BodyObservation, Impulse
 from jostle.config import JostleConfig, ObserverEntry
 from jostle.observer_guard import ObserverGuard
 from jostle.operations import Operations
@@ -152,7 +152,7 @@ class App:
                 fullscreen=(opts.mode == "kiosk"),
                 style=RenderStyle(camera=cfg.render.camera, colours=cfg.render.colours, look=cfg.render.look),
                 stage_x=(cfg.world.x_min, cfg.world.x_max),
-                com_fraction={g.spec.name: g.spec.com_height / g.spec.height for g in cfg.characters} or 0.5,
+                com_fraction=None,  # each character's from its snapshot
                 exit_keys=cfg.kiosk.exit_keys,
             )
             if out_dir is not None:
@@ -207,123 +207,146 @@ class App:
         keyframes: dict[str, KeyframeSet],
         video: VideoOut | None,
     ) -> None:
-        cfg = self.config
-        opts = self.options
-        dt = 1.0 / cfg.render.fps
-        duration = opts.duration_s or cfg.run.duration_s or 0.0
-        total = expected_duration(cfg, opts)
-        latest: dict[str, BodyObservation] = {}
-        silhouettes: dict[str, np.ndarray] = {}
-        ended_at: float | None = None
-        bar = Progress(total, "jostle run", "sim s", enabled=opts.progress)
-        spent = self.stage_seconds
-        terrain = self.terrain
-        fusion = SensorFusion()  # a person seen by two sensors is pushed once
-        silhouette_calibration = None
-        for _, observer in observers.values():
-            calibration = getattr(observer, "calibration", None)
-            if calibration is not None and hasattr(observer, "silhouette"):
-                silhouette_calibration = calibration
-                break
-        t = self.clock.now()
-        t0 = t
-        stepped_to = t  # the world has been stepped up to this clock time
+        """One render frame at a time: read → observe → merge → step → draw, until a stop condition."""
+        dt = 1.0 / self.config.render.fps
+        frames = _Frames(SensorFusion(), t0=self.clock.now())
+        bar = Progress(expected_duration(self.config, self.options), "jostle run", "sim s",
+                       enabled=self.options.progress)
         try:
             while True:
-                t = max(t + dt, self.clock.now())  # late (live, slow display): draw now, never catch up frames
-                self.clock.sleep_until(t)
+                frames.t = max(frames.t + dt, self.clock.now())  # late (live, slow display): draw now, never catch up
+                self.clock.sleep_until(frames.t)
                 now = self.clock.now()
-                clock = time.perf_counter
-                for sensor_name, sensor in sensors.items():
-                    mark = clock()
-                    while (frame := sensor.read(0.0)) is not None:
-                        self.summary.sensor_frames += 1
-                        if self.session_recorder is not None:
-                            self.session_recorder.write(frame)
-                        spent["sensors"] += clock() - mark
-                        for ob_name, (src, observer) in observers.items():
-                            if src != sensor_name:
-                                continue
-                            mark = clock()
-                            obs = observer.observe(frame)
-                            if terrain is not None and ob_name == terrain.section.boxes:  # boxes on the floor
-                                obs = terrain.observe_depth(frame, obs)  # (a stack as tall as a person is no one)
-                            spent["observe"] += clock() - mark
-                            pending = latest.get(ob_name)
-                            if pending is not None and pending.impulses:  # several pad samples per frame:
-                                obs = dataclasses.replace(obs, impulses=pending.impulses + obs.impulses)  # keep all hits
-                            latest[ob_name] = obs
-                            sil = getattr(observer, "silhouette", None)
-                            if isinstance(sil, np.ndarray):
-                                silhouettes[ob_name] = sil
-                            if obs.people:
-                                self.summary.observed_frames_with_people += 1
-                        mark = clock()
-                    spent["sensors"] += clock() - mark
-                    if sensor.status.state in _SENSOR_DOWN:  # unplugged: the people it saw are not there now
-                        _forget_sensor(sensor_name, observers, latest, silhouettes)
-                observation = fusion.merge(now, list(latest.values()))
-                if terrain is not None:  # a hand held still over a floor cell places a cube
-                    terrain.observe_hands(observation)
-                mark = clock()
-                # on simulated time this is exactly dt; live, a slow frame hands the world all the
-                # time that really passed (the world caps catch-up and reports what it dropped)
-                snap = world.step(observation, now - stepped_to)
-                stepped_to = now
-                spent["simulate"] += clock() - mark
-                for ob_name, obs in latest.items():  # an impulse acts once; contactors stay until replaced
-                    if obs.impulses:
-                        latest[ob_name] = dataclasses.replace(obs, impulses=())
-                self.tally.add(snap)
+                self._read_and_observe(sensors, observers, frames)
+                observation = self._merge(now, frames)
+                snap = self._step(world, observation, now - frames.stepped_to)
+                frames.stepped_to = now
                 self.operations.frame(now, snap, observation, sensors, world, self.observer_guards)
-                silhouette = next(iter(silhouettes.values()), None) if cfg.render.show_silhouette else None
-                mark = clock()
-                image = renderer.draw(snap, observation if cfg.render.show_contactors else None, keyframes,
-                                      silhouette=silhouette, silhouette_calibration=silhouette_calibration,
-                                      captions=self.operations.captions(now),
-                                      terrain=None if terrain is None else terrain.view())
-                spent["draw"] += clock() - mark
-                self.operations.keys(renderer.take_keys())  # pressed while the frame was shown
-                self.summary.frames_rendered += 1
-                if video is not None:
-                    mark = clock()
-                    video.write(image)
-                    spent["encode"] += clock() - mark
+                image = self._draw(renderer, snap, observation, keyframes, now, video)
                 if self.on_frame is not None:
                     self.on_frame(snap, observation, image)
                 bar.update(dt)
-                if renderer.should_close:
-                    self.summary.stopped_because = "window closed"
+                if self._should_stop(renderer, sensors, frames, now):
                     break
-                elapsed = now - t0
-                if duration and elapsed >= duration - 1e-9:
-                    self.summary.stopped_because = f"duration {duration:g} s reached"
-                    break
-                if not duration and all(s.status.state is SensorState.ENDED for s in sensors.values()):
-                    ended_at = now if ended_at is None else ended_at
-                    if now - ended_at >= cfg.run.tail_s - 1e-9:
-                        self.summary.stopped_because = "all recordings ended"
-                        break
-                failed = [n for n, s in sensors.items() if s.status.state is SensorState.FAILED]
-                if failed:
-                    name = failed[0]
-                    raise RuntimeError(f"sensor {name!r} failed: {sensors[name].status.reason}")
         except KeyboardInterrupt:
             self.summary.stopped_because = "interrupted"
         finally:
             bar.close()
 
+    def _read_and_observe(self, sensors: dict[str, Sensor], observers: dict[str, tuple[str, Observer]],
+                          frames: _Frames) -> None:
+        """Every frame each sensor has ready → its observers; each observer's latest observation kept
+        (its impulses, a pad's hits, collected apart: they are handed to the world once)."""
+        spent, clock, terrain = self.stage_seconds, time.perf_counter, self.terrain
+        for sensor_name, sensor in sensors.items():
+            mark = clock()
+            while (frame := sensor.read(0.0)) is not None:
+                self.summary.sensor_frames += 1
+                if self.session_recorder is not None:
+                    self.session_recorder.write(frame)
+                spent["sensors"] += clock() - mark
+                for ob_name, (src, observer) in observers.items():
+                    if src != sensor_name:
+                        continue
+                    mark = clock()
+                    obs = observer.observe(frame)
+                    if terrain is not None and ob_name == terrain.section.boxes:  # boxes on the floor
+                        obs = terrain.observe_depth(frame, obs)  # (a stack as tall as a person is no one)
+                    spent["observe"] += clock() - mark
+                    frames.hits[ob_name] = frames.hits.get(ob_name, ()) + obs.impulses  # several pad samples a frame
+                    frames.latest[ob_name] = dataclasses.replace(obs, impulses=()) if obs.impulses else obs
+                    if obs.people:
+                        self.summary.observed_frames_with_people += 1
+                mark = clock()
+            spent["sensors"] += clock() - mark
+            if sensor.status.state in _SENSOR_DOWN:  # unplugged: the people it saw are not there now
+                _forget_sensor(sensor_name, observers, frames.latest)
+
+    def _merge(self, now: float, frames: _Frames) -> BodyObservation:
+        """The observers' latest observations as one (a person seen by two sensors pushes once), with this
+        frame's hits and the cubes held hands ask for."""
+        observation = frames.fusion.merge(now, list(frames.latest.values()))
+        hits = tuple(i for name in frames.latest for i in frames.hits.get(name, ()))
+        frames.hits.clear()
+        if hits:
+            observation = dataclasses.replace(observation, impulses=hits)
+        if self.terrain is not None:  # a hand held still over a floor cell asks for a cube
+            observation = self.terrain.with_hands(observation)
+        return observation
+
+    def _step(self, world: World, observation: BodyObservation, dt: float) -> WorldSnapshot:
+        """On simulated time ``dt`` is exactly one frame; live, a slow frame hands the world all the time that
+        really passed (the world caps catch-up and reports what it dropped)."""
+        mark = time.perf_counter()
+        snap = world.step(observation, dt, intent_all=self.operations.intent_all)
+        self.stage_seconds["simulate"] += time.perf_counter() - mark
+        self.tally.add(snap)
+        return snap
+
+    def _draw(self, renderer: Renderer, snap: WorldSnapshot, observation: BodyObservation,
+              keyframes: dict[str, KeyframeSet], now: float, video: VideoOut | None) -> np.ndarray | None:
+        cfg, spent, clock = self.config, self.stage_seconds, time.perf_counter
+        silhouette = observation.silhouette if cfg.render.show_silhouette else None
+        mark = clock()
+        image = renderer.draw(snap, observation if cfg.render.show_contactors else None, keyframes,
+                              silhouette=None if silhouette is None else silhouette.mask,
+                              silhouette_calibration=None if silhouette is None else silhouette.calibration,
+                              captions=self.operations.captions(now),
+                              terrain=None if self.terrain is None else self.terrain.view())
+        spent["draw"] += clock() - mark
+        self.operations.keys(renderer.take_keys())  # pressed while the frame was shown
+        self.summary.frames_rendered += 1
+        if video is not None:
+            mark = clock()
+            video.write(image)
+            spent["encode"] += clock() - mark
+        return image
+
+    def _should_stop(self, renderer: Renderer, sensors: dict[str, Sensor], frames: _Frames, now: float) -> bool:
+        """The window closed, the duration reached, every recording over (plus the tail); a failed sensor raises."""
+        cfg = self.config
+        duration = self.options.duration_s or cfg.run.duration_s or 0.0
+        if renderer.should_close:
+            self.summary.stopped_because = "window closed"
+            return True
+        if duration and now - frames.t0 >= duration - 1e-9:
+            self.summary.stopped_because = f"duration {duration:g} s reached"
+            return True
+        if not duration and all(s.status.state is SensorState.ENDED for s in sensors.values()):
+            frames.ended_at = now if frames.ended_at is None else frames.ended_at
+            if now - frames.ended_at >= cfg.run.tail_s - 1e-9:
+                self.summary.stopped_because = "all recordings ended"
+                return True
+        failed = [n for n, s in sensors.items() if s.status.state is SensorState.FAILED]
+        if failed:
+            raise RuntimeError(f"sensor {failed[0]!r} failed: {sensors[failed[0]].status.reason}")
+        return False
+
+
+@dataclass
+class _Frames:
+    """What the loop carries from one render frame to the next."""
+
+    fusion: SensorFusion
+    t0: float  # the clock when the loop began
+    t: float = 0.0  # this frame's time
+    stepped_to: float = 0.0  # the world has been stepped up to this clock time
+    ended_at: float | None = None  # when every recording had ended
+    latest: dict[str, BodyObservation] = field(default_factory=dict)  # each observer's last (no impulses)
+    hits: dict[str, tuple[Impulse, ...]] = field(default_factory=dict)  # impulses not yet handed to the world
+
+    def __post_init__(self) -> None:
+        self.t = self.stepped_to = self.t0
+
 
 _SENSOR_DOWN = (SensorState.RECONNECTING, SensorState.FAILED)
 
 
-def _forget_sensor(name: str, observers: dict[str, tuple[str, Observer]], latest: dict[str, BodyObservation],
-                   silhouettes: dict[str, np.ndarray]) -> None:
+def _forget_sensor(name: str, observers: dict[str, tuple[str, Observer]], latest: dict[str, BodyObservation]) -> None:
     """Drop what the observers of sensor ``name`` last saw (its contactors would push on, stale)."""
     for ob_name, (src, _) in observers.items():
         if src == name:
             latest.pop(ob_name, None)
-            silhouettes.pop(ob_name, None)
 
 
 def _observer_builder(ob: ObserverEntry) -> Callable[[], Observer]:

@@ -113,7 +113,6 @@ class JostleConfig:
     quadrupeds: tuple[QuadrupedGroup, ...] = ()  # [[quadrupeds]]: four-legged characters on the terrain
 
 
-INTENTS = ("idle", "wander", "approach", "flee", "follow")
 TOP_KEYS = ("run", "sensors", "observers", "world", "characters", "render", "kiosk", "health", "record", "terrain",
             "quadrupeds")
 

@@ -1,37 +1,31 @@
 """An observer that cannot take the show down: crashes are caught, the observer is rebuilt later.
 
-:class:`ObserverGuard` stands between the main loop and one observer. When ``observe()`` raises:
+:class:`ObserverGuard` stands between the main loop and one observer. When ``observe()`` raises, the
+crash is logged (its traceback the first time that error is seen, one line after that) and counted;
+the observer is dropped, and until it is back every frame gets an empty observation (a crashed
+observer must not leave stale people pushing); after a back-off (``first_backoff_s``, doubling up to
+``max_backoff_s``, reset after ``healthy_after_s`` without a crash) it is rebuilt from its config.
+A rebuild that itself raises counts as a failed restart and backs off further.
 
-- the crash is logged at ERROR, with its traceback the first time that error (type and place) is
-  seen, as one line after that; it is counted;
-- the observer is dropped, and until it is back the guard answers every frame with an empty
-  observation (no people, no contactors: a crashed observer must not leave stale people pushing);
-- after a back-off the observer is rebuilt from its config (``build()``, a fresh object, so any
-  state that led to the crash is gone) and gets the next frame. The back-off starts at
-  ``first_backoff_s`` and doubles with each crash in a row, up to ``max_backoff_s``; an observer
-  that then runs ``healthy_after_s`` without crashing starts again from ``first_backoff_s``.
-  A rebuild that itself raises counts as a failed restart and backs off further.
-
-Everything that comes out of a (healthy) observer is checked too: a contactor or impulse carrying
-a NaN or infinite number is dropped and counted (``dropped_non_finite``), and pad samples carrying
-non-finite newtons are counted on the way in (``non_finite_inputs``; the pads observer reads them as
-0 N). The sim checks its input again (``sim.inputs``), so nothing non-finite reaches pybullet.
-
-Times are the loop's clock, so on a SimClock the restarts are as deterministic as the rest.
-:meth:`ObserverGuard.health` returns the counters as a frozen :class:`ObserverHealth`.
+What comes out of a healthy observer is checked too: a contactor or impulse carrying a NaN or
+infinite number is dropped and counted (``dropped_non_finite``), and pad samples with non-finite
+newtons are counted on the way in (``non_finite_inputs``). The test is ``interaction.types.finite``,
+the same one the sim applies to whatever reaches ``World.step``. Times are the loop's clock, so on a
+SimClock the restarts are as deterministic as the rest; :meth:`ObserverGuard.health` returns the
+counters as a frozen :class:`ObserverHealth`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
-import math
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
 from interaction.observers import Observer
-from interaction.types import BodyObservation, Contactor, Impulse
+from interaction.types import BodyObservation, finite
 from sensors.base import Frame, PadSample
 from sensors.clock import Clock
 
@@ -53,18 +47,6 @@ class ObserverHealth:
     non_finite_inputs: int  # pad samples with NaN or infinite newtons handed to the observer
     last_error: str  # one line: "ValueError: ..." ("" if none yet)
     retry_in_s: float  # seconds until the next rebuild (0 while running)
-
-
-def _finite(values: tuple[float, ...]) -> bool:
-    return all(isinstance(v, int | float) and math.isfinite(v) for v in values)
-
-
-def _contactor_ok(c: Contactor) -> bool:
-    return _finite((*c.position, *c.velocity, c.radius, c.half_depth))
-
-
-def _impulse_ok(i: Impulse) -> bool:
-    return _finite((*i.position, *i.force, i.duration))
 
 
 def _signature(e: BaseException) -> tuple[str, str, int]:
@@ -122,14 +104,6 @@ class ObserverGuard:
         """The observer now running (None while restarting)."""
         return self._observer
 
-    @property
-    def calibration(self) -> object | None:
-        return getattr(self._observer, "calibration", None)
-
-    @property
-    def silhouette(self) -> object | None:
-        return getattr(self._observer, "silhouette", None)
-
     def health(self) -> ObserverHealth:
         running = self._observer is not None
         return ObserverHealth(
@@ -152,7 +126,7 @@ class ObserverGuard:
         elif self._in_a_row and now - self._since >= self.healthy_after_s:
             self._in_a_row = 0  # ran long enough: the next crash backs off from the start again
         payload = frame.payload
-        if isinstance(payload, PadSample) and not _finite(payload.newtons):
+        if isinstance(payload, PadSample) and not finite(*payload.newtons):
             self._non_finite_in += 1
         try:
             obs = self._observer.observe(frame)
@@ -162,8 +136,8 @@ class ObserverGuard:
         return self._checked(obs)
 
     def _checked(self, obs: BodyObservation) -> BodyObservation:
-        contactors = tuple(c for c in obs.contactors if _contactor_ok(c))
-        impulses = tuple(i for i in obs.impulses if _impulse_ok(i))
+        contactors = tuple(c for c in obs.contactors if c.finite)
+        impulses = tuple(i for i in obs.impulses if i.finite)
         dropped = len(obs.contactors) - len(contactors) + len(obs.impulses) - len(impulses)
         if not dropped:
             return obs
@@ -171,7 +145,7 @@ class ObserverGuard:
             log.warning("observer %r: dropped a contactor or impulse with NaN or infinite numbers "
                         "(counted from now on in the health report, not logged again)", self.name)
         self._dropped += dropped
-        return BodyObservation(t=obs.t, contactors=contactors, impulses=impulses, people=obs.people)
+        return dataclasses.replace(obs, contactors=contactors, impulses=impulses)
 
     def _backoff(self) -> float:
         return min(self.first_backoff_s * 2.0 ** max(self._in_a_row - 1, 0), self.max_backoff_s)

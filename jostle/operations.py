@@ -60,6 +60,7 @@ class Operations:
         self._lines: tuple[str, ...] = ()
         self._lines_at: float | None = None
         self._started = False
+        self.intent_all: str | None = None  # every character's intent in attract mode (World.step's input)
 
     def start(self) -> None:
         """Collect warnings and errors, open the HTTP endpoint, tell systemd the installation is up."""
@@ -84,7 +85,7 @@ class Operations:
         people = observation.people if observation is not None else 0
         change = self.attract.update(now, people)
         if change is not None:
-            world.set_intent_all(self.kiosk.attract_intent if change.after is Phase.ATTRACT else None)
+            self.intent_all = self.kiosk.attract_intent if change.after is Phase.ATTRACT else None
             log.info("%s at %.1f s (%s)", "attract mode" if change.after is Phase.ATTRACT else "play",
                      now, "nobody seen" if change.after is Phase.ATTRACT else f"{people} people seen")
         figures = {name: _fields(g.health()) for name, g in (observers or {}).items()

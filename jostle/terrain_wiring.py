@@ -1,16 +1,10 @@
-"""The composition root's terrain: ``[terrain]`` → the sim's cube grid, kept in step with what people do.
+"""The composition root's terrain: ``[terrain]`` → the world's cube grid and what people do to it.
 
-Three inputs change the grid (sim.quadruped.grid.TerrainGrid, whose rules refuse a cube on a
-character's cells or above ``max_height``):
-
-- the layout (``[terrain] layout`` or ``rows``), built once at the start;
-- hands held still over a cell (``interaction.depth.terrain_cells``: one PlacementRequest → one cube placed);
-- real boxes the depth camera sees: each CellReport lists the boxes settled so far; when a box
-  appears, grows or goes, its column gains or loses that many cubes (a column's height = the box's
-  cubes + the cubes placed on it by hand or layout). A change the grid refuses (a character stands
-  there) is tried again with every report until it is taken.
-
-Counts of what happened go to :attr:`TerrainWiring.counts` (for the run summary and the tests).
+The world owns the grid (``World.add_terrain``, with the layout of ``[terrain] layout`` or ``rows``) and
+changes it only through ``World.step``'s observations (``sim.terrain_edits``). Here the observations get
+their ``TerrainReport``: the boxes the depth observer named by ``boxes`` sees (``observe_depth``, which
+also hands on no "person" that is a stack of boxes) and the cubes asked for by hands held still over a
+cell (``observe_hands``, ``with_hands``). ``view`` is what the renderer draws.
 """
 
 from __future__ import annotations
@@ -25,12 +19,12 @@ import numpy as np
 
 from interaction.depth.calibration import DepthCalibration
 from interaction.depth.terrain_cells import CellReport, PlacementRequest, TerrainObserver
-from interaction.types import BodyObservation
+from interaction.types import BodyObservation, TerrainReport
 from jostle.config import JostleConfig
 from jostle.terrain_layout import TerrainSection
 from render.gl.terrain import TerrainView
 from sensors.base import Frame
-from sim.quadruped.grid import Placement, TerrainConfig, TerrainGrid
+from sim.terrain import TerrainConfig, TerrainGrid
 from sim.world import World
 
 log = logging.getLogger("jostle")
@@ -46,12 +40,11 @@ def grid_config(section: TerrainSection) -> TerrainConfig:
 
 @dataclass
 class TerrainWiring:
-    """Applies the layout, the held hands and the depth camera's boxes to ``grid``."""
+    """Turns depth frames and held hands into the observations' ``TerrainReport``s for ``grid``."""
 
     section: TerrainSection
-    grid: TerrainGrid
+    grid: TerrainGrid  # the world's (read here; the world changes it)
     observer: TerrainObserver
-    boxes_applied: dict[tuple[int, int], int] = field(default_factory=dict)  # cubes each real box stands for
     counts: Counter[str] = field(default_factory=Counter)
     placements: list[PlacementRequest] = field(default_factory=list)  # the last update's, for display
     report: CellReport | None = None  # the last depth frame's boxes
@@ -59,32 +52,21 @@ class TerrainWiring:
     @classmethod
     def build(cls, section: TerrainSection, grid: TerrainGrid, calibration: DepthCalibration | None = None
               ) -> TerrainWiring:
-        """The wiring for ``grid`` (whose geometry must be the section's), the layout already built."""
+        """The wiring for ``grid`` (whose geometry must be the section's)."""
         g = section.floor_grid
         c = grid.config
         if (c.cell, c.nx, c.ny, tuple(c.origin)) != (g.cell, g.nx, g.ny, g.origin):
             raise ValueError(f"terrain: the world's grid ({c.nx}×{c.ny} cells of {c.cell} m from {c.origin}) "
                              f"is not the [terrain] grid ({g.nx}×{g.ny} of {g.cell} m from {g.origin})")
-        wiring = cls(section, grid, TerrainObserver(g, section.observe, calibration))
-        wiring.apply_layout()
-        return wiring
-
-    def apply_layout(self) -> None:
-        layout = self.section.initial_layout()
-        for ix, iy, cubes in layout.columns:
-            result = self.grid.set_height(ix, iy, cubes)
-            self.counts[f"layout_{result.value}"] += 1
-            if not result.changed and result is not Placement.UNCHANGED:
-                log.warning("terrain: %s: cell (%d, %d): %d cubes refused (%s)", layout.source, ix, iy, cubes,
-                            result.value)
+        return cls(section, grid, TerrainObserver(g, section.observe, calibration))
 
     # ------------------------------------------------------------ per frame
 
     def observe_depth(self, frame: Frame, bodies: BodyObservation) -> BodyObservation:
-        """A depth frame (and the people the depth observer found in it) → boxes → the grid. Returns
-        ``bodies`` without the "people" who are a stack of boxes as tall as a person (so they push no one)."""
+        """A depth frame (and the people the depth observer found in it) → ``bodies`` with the boxes seen
+        (``terrain.boxes``) and without the "people" who are a stack of boxes as tall as a person."""
         self.report = self.observer.observe_depth(frame, bodies)
-        self.apply_boxes(self.report)
+        bodies = dataclasses.replace(bodies, terrain=TerrainReport(boxes=self.report.cells))
         boxes = self.observer.box_people
         if not boxes:
             return bodies
@@ -92,34 +74,22 @@ class TerrainWiring:
         kept = tuple(c for c in bodies.contactors if c.person not in boxes)
         return dataclasses.replace(bodies, contactors=kept, people=max(0, bodies.people - len(boxes)))
 
-    def apply_boxes(self, report: CellReport) -> None:
-        want = {(ix, iy): cubes for ix, iy, cubes in report.cells}
-        for cell in sorted(set(want) | set(self.boxes_applied)):
-            have, new = self.boxes_applied.get(cell, 0), want.get(cell, 0)
-            if have == new:
-                continue
-            target = int(np.clip(self.grid.height(*cell) - have + new, 0, self.section.max_height))
-            result = self.grid.set_height(cell[0], cell[1], target)
-            if result.changed or result is Placement.UNCHANGED:
-                self.counts["box_added" if new > have else "box_removed"] += 1
-                if new:
-                    self.boxes_applied[cell] = new
-                else:
-                    self.boxes_applied.pop(cell, None)
-            else:
-                self.counts[f"box_{result.value}"] += 1  # tried again with the next report
-
     def observe_hands(self, observation: BodyObservation) -> tuple[PlacementRequest, ...]:
-        """The people's hands (fused observation) → cubes placed where a hand was held still."""
+        """The people's hands (fused observation) → the cubes asked for where a hand was held still."""
         if not self.section.hands:
             return ()
         requests = self.observer.observe_hands(observation)
         for req in requests:
-            result = self.grid.place(req.ix, req.iy)
-            self.counts[f"hand_{result.value}"] += 1
-            log.info("terrain: person %d asked for a cube on (%d, %d): %s", req.person, req.ix, req.iy, result.value)
+            log.info("terrain: person %d asked for a cube on (%d, %d)", req.person, req.ix, req.iy)
         self.placements = list(requests)
         return requests
+
+    def with_hands(self, observation: BodyObservation) -> BodyObservation:
+        """``observation`` with the cubes its hands ask for added to its ``terrain`` report."""
+        asked = TerrainReport(placements=tuple((r.ix, r.iy) for r in self.observe_hands(observation)))
+        if not asked.placements:
+            return observation
+        return dataclasses.replace(observation, terrain=TerrainReport.merge([observation.terrain, asked]))
 
     # ------------------------------------------------------------ drawing
 
@@ -138,21 +108,21 @@ def attach_terrain(config: JostleConfig, world: World) -> TerrainWiring | None:
     section = config.terrain
     if section is None:
         return None
-    herd = world.terrain(grid_config(section))
-    crowd = world.crowd
-    for name, xy in zip(crowd.names, crowd.pos[:, :2], strict=True):
-        herd.grid.reserve(name, herd.grid.cells_within(float(xy[0]), float(xy[1]), _CHARACTER_RADIUS_M))
+    layout = section.initial_layout()
+    grid = world.add_terrain(grid_config(section), layout.columns)
+    refused = sum(n for key, n in world.terrain_counts.items()
+                  if key.startswith("layout_") and key not in ("layout_set", "layout_unchanged"))
+    if refused:
+        log.warning("terrain: %s: %d columns refused (a character stands there, or off the grid)", layout.source,
+                    refused)
     calibration = None
     for ob in config.observers:
         if ob.name == section.boxes and ob.calibration is not None:
             calibration = DepthCalibration.load(ob.calibration)
-    wiring = TerrainWiring.build(section, herd.grid, calibration)
+    wiring = TerrainWiring.build(section, grid, calibration)
     for group in config.quadrupeds:
         q = group.table
         path = np.asarray(q.waypoints, dtype=float).reshape(-1, 2)
-        herd.add(group.spec, (q.position[0], q.position[1]), math.radians(q.heading_deg), world.t,
-                 waypoints=[(float(x), float(y)) for x, y in path] if len(path) else None, taken=crowd.names)
+        world.add_character(group.spec, (q.position[0], q.position[1]), math.radians(q.heading_deg),
+                            waypoints=[(float(x), float(y)) for x, y in path] if len(path) else None)
     return wiring
-
-
-_CHARACTER_RADIUS_M = 0.25  # no cube within this of a standing character's centre (as sim.quadruped.herd)

@@ -114,10 +114,10 @@ class CharacterSpec:
     Balance (eqs. 1–5): ``tau_max`` / ``tau_max_side`` bound the centre-of-pressure torque in the
     front-back / sideways plane (reach of the legs × weight); ``leg_force_max`` bounds the legs'
     horizontal friction force (also bounded by μ·fN). The ``lqr_*_scale`` are Bryson's-rule scales of
-    the state-feedback design (see ``sim.balance``).
+    the state-feedback design (see ``sim.mitake.balance``).
 
     The state machine compares the *balance load* (0 upright and still, 1 at the edge of what the
-    bounded controller can recover, see ``sim.balance.balance_load``) with ``stagger_ratio``,
+    bounded controller can recover, see ``sim.mitake.balance.balance_load``) with ``stagger_ratio``,
     ``recover_ratio`` and ``fall_ratio``.
     """
 

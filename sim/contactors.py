@@ -21,13 +21,13 @@ impulse ∫F dt, the peak force and whether the impulse reached the character's 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import pybullet as p
 
-from sim.body import GROUP_CONTACTOR, MASK_CONTACTOR
-from sim.inputs import SafeContactor
+from interaction.types import Contactor
+from sim.physics import GROUP_CONTACTOR, MASK_CONTACTOR
 from sim.snapshot import ContactEvent
 
 _RADIUS_STEP = 0.01
@@ -79,10 +79,10 @@ class ContactorPool:
         return body
 
     @staticmethod
-    def shape_key(c: SafeContactor) -> ShapeKey:
+    def shape_key(c: Contactor) -> ShapeKey:
         return max(1, round(c.radius / _RADIUS_STEP)), max(0, round(c.half_depth / _DEPTH_STEP))
 
-    def place(self, contactors: Sequence[SafeContactor]) -> None:
+    def place(self, contactors: Sequence[Contactor]) -> None:
         """Move the pool's bodies onto ``contactors`` (with their velocities); park the rest."""
         used: dict[ShapeKey, int] = {}
         active: dict[int, int] = {}
@@ -105,7 +105,7 @@ class ContactorPool:
                     self._parked.add(body)
         self.active = active
 
-    def read_forces(self, characters: dict[int, str]) -> dict[tuple[str, int], float]:
+    def read_forces(self, characters: Mapping[int, str]) -> dict[tuple[str, int], float]:
         """Force (N, normal and friction) each person puts on each character in the last physics step."""
         forces: dict[tuple[str, int], float] = {}
         for body, person in self.active.items():

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]  # x, y, z, w
 Array = NDArray[np.float64]
 

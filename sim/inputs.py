@@ -6,42 +6,26 @@ Nothing from an observation reaches pybullet without passing through ``clean_obs
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
-from interaction.types import BodyObservation
+from interaction.types import BodyObservation, Contactor, Impulse, TerrainReport, Vec3, finite
 from sim.config import WorldConfig
-from sim.frames import Vec3
 
 _FAR_M = 100.0  # positions farther than this from the stage origin are nonsense
 
 
 @dataclass(frozen=True, slots=True)
-class SafeContactor:
-    person: int
-    position: Vec3
-    velocity: Vec3
-    radius: float
-    half_depth: float
-
-
-@dataclass(frozen=True, slots=True)
-class SafeImpulse:
-    position: Vec3
-    force: Vec3
-    duration: float
-    source: str
-
-
-@dataclass(frozen=True, slots=True)
 class CleanedObservation:
-    contactors: tuple[SafeContactor, ...]
-    impulses: tuple[SafeImpulse, ...]
-    rejected: int  # items dropped (position or force unusable)
+    contactors: tuple[Contactor, ...]
+    impulses: tuple[Impulse, ...]
+    terrain: TerrainReport | None  # its cells whole numbers (a box's cubes ≥ 0)
+    rejected: int  # items dropped (position, force or cell unusable)
     clamped: int  # values replaced or limited
 
 
 def _finite(v: Vec3) -> bool:
-    return len(v) == 3 and all(isinstance(c, int | float) and math.isfinite(c) for c in v)
+    return len(v) == 3 and finite(*v)
 
 
 def _limit(v: Vec3, bound: float) -> tuple[Vec3, bool]:
@@ -55,7 +39,7 @@ def _limit(v: Vec3, bound: float) -> tuple[Vec3, bool]:
 def clean_observation(obs: BodyObservation, config: WorldConfig) -> CleanedObservation:
     rejected = 0
     clamped = 0
-    contactors: list[SafeContactor] = []
+    contactors: list[Contactor] = []
     for c in obs.contactors:
         if not _finite(c.position) or max(abs(v) for v in c.position) > _FAR_M \
                 or not isinstance(c.radius, int | float) or not math.isfinite(c.radius) or c.radius <= 0.0:
@@ -76,8 +60,8 @@ def clean_observation(obs: BodyObservation, config: WorldConfig) -> CleanedObser
         elif half_depth > config.max_contactor_radius * 4.0:
             half_depth, clamped = config.max_contactor_radius * 4.0, clamped + 1
         pos = (float(c.position[0]), float(c.position[1]), float(c.position[2]))
-        contactors.append(SafeContactor(int(c.person), pos, velocity, radius, float(half_depth)))
-    impulses: list[SafeImpulse] = []
+        contactors.append(Contactor(int(c.person), str(c.part), pos, velocity, radius, float(half_depth)))
+    impulses: list[Impulse] = []
     for i in obs.impulses:
         push = clean_push(i.force, i.duration, config)
         if push is None or not _finite(i.position) or max(abs(v) for v in i.position) > _FAR_M:
@@ -86,8 +70,24 @@ def clean_observation(obs: BodyObservation, config: WorldConfig) -> CleanedObser
         force, duration, cuts = push
         clamped += cuts
         pos = (float(i.position[0]), float(i.position[1]), float(i.position[2]))
-        impulses.append(SafeImpulse(pos, force, duration, str(i.source)))
-    return CleanedObservation(tuple(contactors), tuple(impulses), rejected, clamped)
+        impulses.append(Impulse(pos, force, duration, str(i.source)))
+    terrain, dropped = _clean_terrain(obs.terrain)
+    return CleanedObservation(tuple(contactors), tuple(impulses), terrain, rejected + dropped, clamped)
+
+
+def _whole(*values: object) -> bool:
+    return all(isinstance(v, numbers.Integral) and not isinstance(v, bool) for v in values)
+
+
+def _clean_terrain(report: TerrainReport | None) -> tuple[TerrainReport | None, int]:
+    """The report with only whole-number cells (a box of ≥ 0 cubes), and how many items were dropped."""
+    if report is None:
+        return None, 0
+    placements = tuple((int(c[0]), int(c[1])) for c in report.placements if len(c) == 2 and _whole(*c))
+    boxes = None if report.boxes is None else \
+        tuple((int(b[0]), int(b[1]), int(b[2])) for b in report.boxes if len(b) == 3 and _whole(*b) and b[2] >= 0)
+    dropped = len(report.placements) - len(placements) + (0 if boxes is None else len(report.boxes or ()) - len(boxes))
+    return TerrainReport(placements, boxes), dropped
 
 
 def clean_push(force: Vec3, duration: float, config: WorldConfig) -> tuple[Vec3, float, int] | None:
@@ -106,7 +106,7 @@ def clean_push(force: Vec3, duration: float, config: WorldConfig) -> tuple[Vec3,
     return safe, duration, clamped + int(cut)
 
 
-def contactors_at(contactors: tuple[SafeContactor, ...], age: float, hold_s: float) -> tuple[SafeContactor, ...]:
+def contactors_at(contactors: tuple[Contactor, ...], age: float, hold_s: float) -> tuple[Contactor, ...]:
     """The last observation's contactors ``age`` s after it, each moved on at its own velocity; none once
     they are older than ``hold_s`` (the person is no longer known to be there)."""
     if not contactors or age > hold_s + 1e-9:
@@ -114,7 +114,7 @@ def contactors_at(contactors: tuple[SafeContactor, ...], age: float, hold_s: flo
     if age <= 0.0:
         return contactors
     return tuple(
-        SafeContactor(c.person, (c.position[0] + c.velocity[0] * age, c.position[1] + c.velocity[1] * age,
+        Contactor(c.person, c.part, (c.position[0] + c.velocity[0] * age, c.position[1] + c.velocity[1] * age,
                                  c.position[2] + c.velocity[2] * age), c.velocity, c.radius, c.half_depth)
         for c in contactors
     )

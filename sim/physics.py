@@ -1,11 +1,19 @@
-"""One pybullet client set up the way every world (and the bench's bare baseline) uses it."""
+"""One pybullet client set up the way every world (and the bench's bare baseline) uses it, and the
+collision groups every body of the world belongs to (floor and cubes, characters, contactors)."""
 
 from __future__ import annotations
 
 import pybullet as p
 
-from sim.body import GROUP_FLOOR, MASK_FLOOR
 from sim.config import WorldConfig
+
+# collision groups: bit masks (group, mask); a pair collides when each one's group is in the other's mask
+GROUP_FLOOR = 1
+GROUP_CHARACTER = 2
+GROUP_CONTACTOR = 4
+MASK_FLOOR = GROUP_CHARACTER
+MASK_CHARACTER = GROUP_FLOOR | GROUP_CHARACTER | GROUP_CONTACTOR
+MASK_CONTACTOR = GROUP_CHARACTER
 
 
 def open_client(config: WorldConfig) -> tuple[int, int]:

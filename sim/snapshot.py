@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import StrEnum
 
-Vec3 = tuple[float, float, float]
+from interaction.types import Vec3
+
 Quat = tuple[float, float, float, float]  # x, y, z, w (pybullet's order)
 
 
@@ -42,7 +43,7 @@ class CharacterSnapshot:
     ``d_front`` / ``d_side`` are the paper's travelled distances (eqs. 6–7), metres.
     ``behaviour`` is B, the animation behaviour the AI picks (e.g. "walk", "stand_up");
     ``intent`` is what the AI is doing (e.g. "wander", "flee").
-    ``kind``, ``balance_load`` and ``links`` were added later (defaults keep older constructors working).
+    ``kind``, ``balance_load``, ``links`` and ``com_height`` were added later (defaults keep older constructors working).
     """
 
     name: str
@@ -63,6 +64,12 @@ class CharacterSnapshot:
     kind: str = ""  # the character spec's name (e.g. "walker", "critter"): which figure to draw
     balance_load: float = 0.0  # 0 balanced … ≥ 1 beyond what its bounded controller can recover (10: down)
     links: tuple[LinkPose, ...] = ()  # articulated kinds only: every link's world pose (render draws these)
+    # metres above its lowest point, from the spec (render lifts the figure by it); None: half its height.
+    # Left out of repr, so the run's trace hash (of the reprs) stays what it was before the field came.
+    com_height: float | None = field(default=None, repr=False)
+
+
+PAD_PERSON = -1  # ContactEvent.person for pads and strikes (they carry no person id)
 
 
 @dataclass(frozen=True, slots=True)

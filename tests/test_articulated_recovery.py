@@ -17,6 +17,7 @@ from sim.articulated.character import ArticulatedCharacter
 from sim.articulated.recovery import Recovery, advance, braced
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
+from sim.articulated.troupe import ArticulatedCharacters
 from sim.config import WorldConfig
 from sim.snapshot import CharacterState
 from sim.world import World
@@ -178,12 +179,14 @@ def test_the_world_steps_finer_while_an_articulated_character_recovers() -> None
         name = world.add_character(ArticulatedSpec(recovery_substeps=4), (-3.0, 0.0), 0.0)
         for _ in range(15):
             world.step(None, 1.0 / 30.0)
-        assert world.articulated.substeps() == (1, False)
+        troupe = world.population("articulated")
+        assert isinstance(troupe, ArticulatedCharacters)
+        assert troupe.substeps() == (1, False)
         world.strike(name, (0.0, 200.0, 0.0), 0.2, (0.0, 0.0, 0.0))
         for _ in range(15):
             world.step(None, 1.0 / 30.0)
-        ch = world.articulated.characters[name]
-        assert world.articulated.substeps() == (4, True) and ch.falls == 0
+        ch = troupe.characters[name]
+        assert troupe.substeps() == (4, True) and ch.falls == 0
         assert ch.t == pytest.approx(world.t)  # its control saw every quarter step: the same time as the world
         assert p.getPhysicsEngineParameters(physicsClientId=ch.client)["fixedTimeStep"] == pytest.approx(DT)
 

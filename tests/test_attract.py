@@ -96,7 +96,7 @@ def test_the_call_to_action_fades_in_then_pulses_within_bounds() -> None:
 # ------------------------------------------------------------------ the world's intent switch
 
 
-def test_set_intent_all_makes_idle_characters_wander_and_gives_their_own_back() -> None:
+def test_intent_all_makes_idle_characters_wander_and_gives_their_own_back() -> None:
     world = World(WorldConfig(), np.random.default_rng(3))
     names = [world.add_character(CharacterSpec(), (x, 0.0), 0.0, intent="idle") for x in (-1.5, 1.5)]
     try:
@@ -107,16 +107,16 @@ def test_set_intent_all_makes_idle_characters_wander_and_gives_their_own_back() 
             return max(float(np.linalg.norm(np.array(c.position[:2]) - start[c.name])) for c in snap.characters)
 
         idle = travelled(3.0)
-        world.set_intent_all("wander")
+        world.step(None, 0.0, intent_all="wander")
         wandered = travelled(4.0)
-        world.set_intent_all(None)
+        world.step(None, 0.0, intent_all=None)
         travelled(1.5)  # slow down and stop
         back = travelled(3.0)
         assert idle < 0.1 and back < 0.1
         assert wandered > 1.0
         assert [world.crowd.base_intent[world.crowd.index[n]] for n in names] == [0, 0]  # idle again
         with pytest.raises(ValueError, match="^intent: "):
-            world.set_intent_all("dance")
+            world.step(None, 0.0, intent_all="dance")
     finally:
         world.close()
 

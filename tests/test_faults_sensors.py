@@ -24,8 +24,7 @@ from sensors.faults import FaultyReplayConfig
 from sensors.pads.config import PadsConfig
 from sensors.pads.protocol import encode_binary
 from sensors.recording.replay import ReplayConfig
-from sim.snapshot import WorldSnapshot
-from sim.world import PAD_PERSON
+from sim.snapshot import PAD_PERSON, WorldSnapshot
 
 ROOT = Path(__file__).resolve().parent.parent
 PADS = PadsObserverConfig(positions=(0.0, 0.0, 0.9), directions=(0.0, 1.0, 0.0))

@@ -10,7 +10,7 @@ from jostle.bench import quadruped as bench
 from jostle.bench.table import BENCHES
 from sim.config import CharacterSpec, WorldConfig
 from sim.quadruped.config import QuadrupedSpec
-from sim.quadruped.grid import TerrainConfig
+from sim.terrain import TerrainConfig
 from sim.world import World
 
 
@@ -32,11 +32,11 @@ def test_bench_reports_the_issue_keys() -> None:
 
 def _trace(seed: int) -> list[tuple[float, ...]]:
     with World(WorldConfig(), np.random.default_rng(seed)) as world:
-        herd = world.terrain(TerrainConfig(cell=0.3, nx=20, ny=8, origin=(-3.0, -1.2)))
+        grid = world.add_terrain(TerrainConfig(cell=0.3, nx=20, ny=8, origin=(-3.0, -1.2)))
         for iy in range(8):
-            herd.grid.set_height(12, iy, 1)
+            grid.set_height(12, iy, 1)
         world.add_character(CharacterSpec(), (2.0, 0.6), 0.0)
-        herd.add(QuadrupedSpec(waypoints=(2.0, -0.5, -2.0, -0.5)), (-2.4, -0.5), 0.0, world.t)
+        world.add_character(QuadrupedSpec(waypoints=(2.0, -0.5, -2.0, -0.5)), (-2.4, -0.5), 0.0)
         out = []
         for _ in range(90):
             snap = world.step(None, 1 / 30)

@@ -8,7 +8,7 @@ import pytest
 
 from sim.config import WorldConfig
 from sim.physics import open_client
-from sim.quadruped.grid import CellChange, Placement, TerrainBody, TerrainConfig, TerrainGrid
+from sim.terrain import CellChange, Placement, TerrainBody, TerrainConfig, TerrainGrid
 
 
 def test_config_rejects_bad_fields_naming_them() -> None:
@@ -110,7 +110,7 @@ def test_pybullet_body_follows_the_grid() -> None:
         # a ball dropped on the cube rests on its top face
         ball = p.createMultiBody(1.0, p.createCollisionShape(p.GEOM_SPHERE, radius=0.05, physicsClientId=client),
                                  -1, (x2, y2, 0.6), physicsClientId=client)
-        from sim.body import GROUP_CHARACTER, MASK_CHARACTER
+        from sim.physics import GROUP_CHARACTER, MASK_CHARACTER
         p.setCollisionFilterGroupMask(ball, -1, GROUP_CHARACTER, MASK_CHARACTER, physicsClientId=client)
         for _ in range(240):
             p.stepSimulation(physicsClientId=client)

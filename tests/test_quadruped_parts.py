@@ -10,11 +10,11 @@ import pybullet as p
 import pytest
 
 from sim.quadruped.footsteps import MotionModel, choose_foothold
-from sim.quadruped.grid import TerrainConfig, TerrainGrid
 from sim.quadruped.legs import bezier, dtw_blend, dtw_path, swing_control_points, swing_position
 from sim.quadruped.motion_models import BodyStyle
 from sim.quadruped.planner import CostField, PlanCosts, PlanStatus, Route, cell_costs, plan, replan
 from sim.quadruped.skeleton import LEGS, load_laikago
+from sim.terrain import TerrainConfig, TerrainGrid
 
 
 def _grid(nx: int = 12, ny: int = 8) -> TerrainGrid:

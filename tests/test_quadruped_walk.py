@@ -12,8 +12,8 @@ from jostle.bench.quadruped_trial import Trial
 from sim.quadruped.footsteps import MotionModel as M
 from sim.quadruped.footsteps import predict_models
 from sim.quadruped.gait import Locomotion
-from sim.quadruped.grid import TerrainConfig
 from sim.quadruped.planner import PlanStatus
+from sim.terrain import TerrainConfig
 
 CFG = TerrainConfig(cell=0.3, nx=20, ny=10, origin=(0.0, 0.0), max_height=3)
 

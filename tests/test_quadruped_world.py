@@ -11,8 +11,9 @@ import pytest
 
 from sim.config import CharacterSpec, WorldConfig
 from sim.quadruped.config import QuadrupedSpec
-from sim.quadruped.grid import Placement, TerrainConfig
+from sim.quadruped.herd import Quadrupeds
 from sim.snapshot import CharacterState, WorldSnapshot
+from sim.terrain import Placement, TerrainConfig
 from sim.world import World
 
 TERRAIN = TerrainConfig(cell=0.3, nx=20, ny=8, origin=(-3.0, -1.2))
@@ -29,14 +30,21 @@ def _quad(snap: WorldSnapshot):  # type: ignore[no-untyped-def]
     return next(c for c in snap.characters if c.kind == "quadruped")
 
 
+def _herd(world: World) -> Quadrupeds:
+    herd = world.population("quadruped")
+    assert isinstance(herd, Quadrupeds)
+    return herd
+
+
 def _run(world: World, seconds: float) -> list[WorldSnapshot]:
     return [world.step(None, 1 / 30) for _ in range(int(round(seconds * 30)))]
 
 
 def test_snapshot_contract_and_walk_to_goal(world: World) -> None:
-    herd = world.terrain(TERRAIN)
+    world.add_terrain(TERRAIN)
+    herd = _herd(world)
     world.add_character(CharacterSpec(), (2.0, 0.6), 0.0, intent="idle")
-    name = herd.add(QuadrupedSpec(), (-2.4, 0.0), 0.0, world.t, goal=(-0.6, 0.0))
+    name = world.add_character(QuadrupedSpec(), (-2.4, 0.0), 0.0, goal=(-0.6, 0.0))
     snaps = _run(world, 9.0)
     q = _quad(snaps[-1])
     assert q.name == name and q.kind == "quadruped" and len(snaps[-1].characters) == 2
@@ -51,20 +59,19 @@ def test_snapshot_contract_and_walk_to_goal(world: World) -> None:
 
 
 def test_no_cube_under_any_character(world: World) -> None:
-    herd = world.terrain(TERRAIN)
+    grid = world.add_terrain(TERRAIN)
     world.add_character(CharacterSpec(), (1.35, 0.15), 0.0, intent="idle")
-    herd.add(QuadrupedSpec(), (-1.65, 0.15), 0.0, world.t)
+    world.add_character(QuadrupedSpec(), (-1.65, 0.15), 0.0)
     _run(world, 0.2)
-    grid = herd.grid
     assert grid.place(*grid.cell_of(1.35, 0.15)) is Placement.UNDER_CHARACTER  # type: ignore[misc]
     assert grid.place(*grid.cell_of(-1.65, 0.15)) is Placement.UNDER_CHARACTER  # type: ignore[misc]
     assert grid.place(*grid.cell_of(0.0, -0.9)) is Placement.PLACED  # type: ignore[misc]
 
 
 def test_mitake_characters_collide_with_the_cubes(world: World) -> None:
-    herd = world.terrain(TERRAIN)
+    grid = world.add_terrain(TERRAIN)
     for iy in range(TERRAIN.ny):
-        herd.grid.set_height(10, iy, 2)  # a wall across the stage at x in [0, 0.3)
+        grid.set_height(10, iy, 2)  # a wall across the stage at x in [0, 0.3)
     world.add_character(CharacterSpec(), (-1.5, 0.0), 0.0, intent="follow", waypoints=[(2.0, 0.0), (2.5, 0.0)])
     xs = [c.position[0] for snap in _run(world, 8.0) for c in snap.characters]
     assert max(xs) < 0.0  # never through the wall
@@ -72,8 +79,9 @@ def test_mitake_characters_collide_with_the_cubes(world: World) -> None:
 
 
 def test_a_shove_offsets_it_and_it_steps_back(world: World) -> None:
-    herd = world.terrain(TERRAIN)
-    name = herd.add(QuadrupedSpec(), (0.0, 0.0), 0.0, world.t)
+    world.add_terrain(TERRAIN)
+    herd = _herd(world)
+    name = world.add_character(QuadrupedSpec(), (0.0, 0.0), 0.0)
     _run(world, 0.5)
     x0 = _quad(world.snapshot()).position
     herd.shove(name, (0.0, 0.6, 0.0), world.t)
@@ -87,9 +95,10 @@ def test_a_shove_offsets_it_and_it_steps_back(world: World) -> None:
 
 
 def test_a_strong_shove_knocks_it_over_and_it_gets_up(world: World) -> None:
-    herd = world.terrain(TERRAIN)
+    world.add_terrain(TERRAIN)
+    herd = _herd(world)
     spec = QuadrupedSpec()
-    name = herd.add(spec, (0.0, 0.0), 0.0, world.t)
+    name = world.add_character(spec, (0.0, 0.0), 0.0)
     _run(world, 0.3)
     herd.shove(name, (0.0, 2.5, 0.0), world.t)
     snaps = _run(world, spec.lie_s + spec.getup_s + 3.0)

@@ -7,10 +7,10 @@ import math
 import numpy as np
 
 from interaction.types import BodyObservation, Contactor, Impulse
-from sim.ai import Neighbours, Stage, decide, separation_velocities
-from sim.balance import BalanceDesign
 from sim.config import CharacterSpec, WorldConfig
-from sim.crowd import Crowd
+from sim.mitake.ai import Neighbours, Stage, decide, separation_velocities
+from sim.mitake.balance import BalanceDesign
+from sim.mitake.crowd import Crowd
 from sim.snapshot import CharacterState
 from sim.world import World
 

@@ -8,12 +8,12 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from sim.balance import BalanceDesign, discretise, dlqr, expm, impulse_discretise, pendulum_matrices
 from sim.config import CharacterSpec
-from sim.crowd import STATES, Crowd
 from sim.frames import Frames, frames, tilt_rates, wrap_angle
+from sim.mitake.balance import BalanceDesign, discretise, dlqr, expm, impulse_discretise, pendulum_matrices
+from sim.mitake.crowd import STATES, Crowd
+from sim.mitake.states import Readings, advance
 from sim.snapshot import CharacterState
-from sim.states import Readings, advance
 
 G = 9.81
 DT = 1 / 30  # the default control tick
@@ -58,7 +58,7 @@ def test_lqr_stabilises_the_linearised_pendulum() -> None:
 def _simulate_plane(design_gains: object, spec: CharacterSpec, theta: float, rate: float, v: float,
                     seconds: float, mu: float = 0.8) -> tuple[float, float]:
     """The linear plane model under the *bounded* feedback, integrated finely. Returns (max |θ|, final v)."""
-    from sim.balance import PlaneGains, friction_bound
+    from sim.mitake.balance import PlaneGains, friction_bound
 
     assert isinstance(design_gains, PlaneGains)
     m, i, length = spec.mass, spec.inertia, spec.com_height

@@ -10,8 +10,8 @@ import pytest
 from interaction.types import BodyObservation, Contactor, Impulse
 from sim.config import CharacterSpec, WorldConfig
 from sim.contactors import ContactEpisodes
-from sim.snapshot import CharacterState, ContactEvent, StateChange
-from sim.world import PAD_PERSON, World
+from sim.snapshot import PAD_PERSON, CharacterState, ContactEvent, StateChange
+from sim.world import World
 
 DT = WorldConfig().control_dt
 PHYS = 1 / 240

@@ -1,7 +1,7 @@
 """Reactions of a walking character to pushes (issue B's tests): small, strong, repeated, and the trace.
 
 A character walks a long straight path (intent ``follow``) on a large stage; ``World.strike`` pushes it
-at a point of its figure (``sim.body.figure_point``) for 0.1 s, pointing at its vertical axis.
+at a point of its figure (``sim.mitake.body.figure_point``) for 0.1 s, pointing at its vertical axis.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import math
 import numpy as np
 import pytest
 
-from sim.body import figure_point
 from sim.config import CharacterSpec, WorldConfig
+from sim.mitake.body import figure_point
 from sim.snapshot import CharacterState, WorldSnapshot
 from sim.world import World
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from interaction.types import BodyObservation, Contactor, Impulse
-from sim.body import figure_point
 from sim.config import CharacterSpec, WorldConfig
+from sim.mitake.body import figure_point
 from sim.snapshot import CharacterState
 from sim.world import World
 

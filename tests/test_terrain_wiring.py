@@ -1,5 +1,5 @@
 """[terrain]: the layout reader, the config, and the wiring of layout, hands and depth boxes into the
-sim's cube grid (sim.quadruped.grid.TerrainGrid), up to a headless run that draws the cubes."""
+world's cube grid (sim.terrain.TerrainGrid, changed by sim.terrain_edits), up to a headless run that draws the cubes."""
 
 from __future__ import annotations
 
@@ -11,15 +11,16 @@ import pytest
 from test_terrain_cells import calibration, cube_column, depth_frame
 
 from interaction.depth import DepthObserver, DepthObserverConfig
-from interaction.depth.terrain_cells import CellReport, TerrainObserverConfig
-from interaction.types import BodyObservation, Contactor
+from interaction.depth.terrain_cells import TerrainObserverConfig
+from interaction.types import BodyObservation, Contactor, TerrainReport
 from jostle.app import App, RunOptions
 from jostle.config import ConfigError, load_config
 from jostle.terrain_layout import LayoutError, TerrainSection, parse_rows, read_layout
 from jostle.terrain_wiring import TerrainWiring, grid_config
 from sensors.recording.writer import RecordingWriter
-from sim.quadruped.grid import TerrainGrid
 from sim.snapshot import WorldSnapshot
+from sim.terrain import TerrainGrid
+from sim.terrain_edits import TerrainEdits
 
 ROOT = Path(__file__).resolve().parent.parent
 STEPS = ROOT / "configs" / "terrain" / "steps.toml"
@@ -104,7 +105,15 @@ def test_config_errors_are_one_line_naming_the_key(tmp_path: Path) -> None:
 
 
 def wiring(section: TerrainSection = SMALL) -> TerrainWiring:
-    return TerrainWiring.build(section, TerrainGrid(grid_config(section)), calibration())
+    """The wiring of a grid laid out as ``section`` says (the world's part: ``sim.terrain_edits``)."""
+    grid = TerrainGrid(grid_config(section))
+    TerrainEdits(grid).layout(section.initial_layout().columns)
+    return TerrainWiring.build(section, grid, calibration())
+
+
+def edits(w: TerrainWiring) -> TerrainEdits:
+    """What the world does with the wiring's reports (``World.step`` applies them so)."""
+    return TerrainEdits(w.grid)
 
 
 def test_the_layout_is_built_and_drawn_from_the_grid() -> None:
@@ -117,48 +126,56 @@ def test_the_layout_is_built_and_drawn_from_the_grid() -> None:
 
 def test_boxes_come_and_go_and_keep_the_cubes_placed_on_them() -> None:
     w = wiring()
-    w.apply_boxes(CellReport(0.0, ((5, 4, 1), (7, 2, 2))))
+    e = edits(w)
+    e.apply(TerrainReport(boxes=((5, 4, 1), (7, 2, 2))))
     assert (w.grid.height(5, 4), w.grid.height(7, 2)) == (1, 2)
     assert w.grid.place(5, 4).changed  # a cube placed on the real box
-    w.apply_boxes(CellReport(1.0, ((7, 2, 2),)))  # the box under it lifted away
+    e.apply(TerrainReport(boxes=((7, 2, 2),)))  # the box under it lifted away
     assert (w.grid.height(5, 4), w.grid.height(7, 2)) == (1, 2)
-    w.apply_boxes(CellReport(2.0, ()))
+    e.apply(TerrainReport(boxes=()))
     assert int(w.grid.heights.sum()) == 1
-    assert w.counts["box_added"] == 2 and w.counts["box_removed"] == 2
+    assert e.counts["box_added"] == 2 and e.counts["box_removed"] == 2
 
 
 def test_a_box_under_a_character_waits_until_it_leaves() -> None:
     w = wiring()
+    e = edits(w)
     w.grid.reserve("dog", [(5, 4)])
-    w.apply_boxes(CellReport(0.0, ((5, 4, 1),)))
-    assert w.grid.height(5, 4) == 0 and w.counts["box_under_character"] == 1
+    e.apply(TerrainReport(boxes=((5, 4, 1),)))
+    assert w.grid.height(5, 4) == 0 and e.counts["box_under_character"] == 1
     w.grid.release("dog")
-    w.apply_boxes(CellReport(0.1, ((5, 4, 1),)))
+    e.apply(TerrainReport(boxes=((5, 4, 1),)))
     assert w.grid.height(5, 4) == 1
 
 
 def test_depth_frames_of_boxes_build_the_grid() -> None:
     w = wiring()
+    e = edits(w)
     boxes = [cube_column(3, 4, 1), cube_column(8, 5, 2)]
     rng = np.random.default_rng(4)
     for i in range(20):
-        w.observe_depth(depth_frame(boxes, i / 15, i, rng), BodyObservation(i / 15))
+        report = w.observe_depth(depth_frame(boxes, i / 15, i, rng), BodyObservation(i / 15)).terrain
+        assert report is not None
+        e.apply(report)
     assert {(int(i), int(j)) for i, j in zip(*np.nonzero(w.grid.heights), strict=True)} == {(3, 4), (8, 5)}
     assert (w.grid.height(3, 4), w.grid.height(8, 5)) == (1, 2)
 
 
 def test_a_held_hand_places_one_cube_and_a_refused_one_is_counted() -> None:
     w = wiring(dataclasses.replace(SMALL, observe=TerrainObserverConfig(hold_s=0.5)))
+    e = edits(w)
     x, y = w.observer.grid.centre(10, 6)
     for i in range(40):
         people = (Contactor(1, "head", (0.0, 0.0, 1.6), (0.0, 0.0, 0.0), 0.12),
                   Contactor(1, "hand", (x, y, 1.0), (0.0, 0.0, 0.0), 0.07),
                   Contactor(1, "hand", (-0.6, 0.0, 1.0), (0.0, 0.0, 0.0), 0.07))  # both hands held out
-        w.observe_hands(BodyObservation(i / 30, people, people=1))
+        report = w.with_hands(BodyObservation(i / 30, people, people=1)).terrain
+        if report is not None:
+            e.apply(report)
     other = w.observer.grid.cell_at(-0.6, 0.0)
     assert other is not None
     assert w.grid.height(10, 6) == 1 and w.grid.height(*other) == 1
-    assert w.counts["hand_placed"] == 2
+    assert e.counts["hand_placed"] == 2
     off = wiring(dataclasses.replace(SMALL, hands=False))
     assert off.observe_hands(BodyObservation(0.0, people)) == ()
 
@@ -247,6 +264,7 @@ def test_a_stack_as_tall_as_a_person_is_a_stack_not_a_person() -> None:
     """The depth observer takes a 0.9 m stack of boxes for a person (it reaches its min_height_m); the
     terrain takes it for boxes, and the observation handed on has no one in it."""
     w = wiring()
+    e = edits(w)
     people = DepthObserver(DepthObserverConfig(), calibration())
     rng = np.random.default_rng(6)
     for i in range(6):  # the depth observer learns the empty stage
@@ -256,7 +274,10 @@ def test_a_stack_as_tall_as_a_person_is_a_stack_not_a_person() -> None:
         frame = depth_frame([cube_column(5, 4, 3)], i / 15, i, rng)
         obs = people.observe(frame)
         seen += obs.people
-        handed_on += w.observe_depth(frame, obs).people
+        handed = w.observe_depth(frame, obs)
+        handed_on += handed.people
+        assert handed.terrain is not None
+        e.apply(handed.terrain)
     assert seen > 20  # the depth observer's "person"
     assert handed_on == 0
     assert w.grid.height(5, 4) == 3 and int(w.grid.heights.sum()) == 3
@@ -264,6 +285,7 @@ def test_a_stack_as_tall_as_a_person_is_a_stack_not_a_person() -> None:
 
 def test_a_person_beside_a_box_is_still_a_person() -> None:
     w = wiring()
+    e = edits(w)
     x, y = w.observer.grid.centre(6, 4)
     person = BodyObservation(0.0, (Contactor(2, "head", (x + 0.5, y, 1.6), (0.0, 0.0, 0.0), 0.12),
                                    Contactor(2, "hand", (x, y, 0.9), (0.0, 0.0, 0.0), 0.07)), people=1)
@@ -271,6 +293,8 @@ def test_a_person_beside_a_box_is_still_a_person() -> None:
     for i in range(20):
         handed_on = w.observe_depth(depth_frame([cube_column(6, 4, 1)], i / 15, i, rng), person)
         assert handed_on.people == 1 and len(handed_on.contactors) == 2
+        assert handed_on.terrain is not None
+        e.apply(handed_on.terrain)
     assert w.grid.height(6, 4) == 0  # a person's hand over it: not judged while they are there
 
 

@@ -27,7 +27,7 @@ import numpy as np
 import numpy.ma  # noqa: F401  np.median imports it on first use (~16 ms): at import, not in the first frame
 
 from interaction.people import Blob, PeopleTracker, find_blobs, outline_points
-from interaction.types import BodyObservation, Contactor
+from interaction.types import BodyObservation, Contactor, Silhouette
 from interaction.webcam.calibration import Calibration
 from interaction.webcam.config import FlowPreset, WebcamObserverConfig
 from interaction.webcam.people_flow import joined_boxes, median_flow
@@ -192,8 +192,9 @@ class WebcamObserver:
         ids = self._tracker.assign([b.centroid for b in blobs])  # also ages the people not seen
         if self._pose is not None:
             self._pose.forget(set(ids))
+        seen = Silhouette(self.silhouette, self._cal)  # type: ignore[arg-type]  # (set just above)
         if not blobs:
-            return BodyObservation(t=frame.t)
+            return BodyObservation(t=frame.t, silhouette=seen)
         born = self._tracker.born
 
         dt = frame.t - prev_t if prev_t is not None else 0.0
@@ -205,7 +206,7 @@ class WebcamObserver:
             contactors.extend(self._contactors(pid, person, people, 0.0 if pid in born else dt))
         if self._pose is not None:
             contactors.extend(self._limb_contactors(bgr, ids, blobs, people, frame.t, dt, born))
-        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(blobs))
+        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(blobs), silhouette=seen)
 
     # ------------------------------------------------------------ internals
 

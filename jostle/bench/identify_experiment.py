@@ -1,9 +1,11 @@
 """The observer experiment of ``jostle bench identify`` (Mitake et al. 2009 §6.2) done by machine.
 
-Forces (Figure 9 of the paper): a walking character is pushed once, for ``PUSH_S``, at azimuth
-θpos ∈ {−45°, 0°, 45°} and height h ∈ {0, 0.5, 1.0} m of its figure's outline
-(``sim.body.figure_point``), in the direction of its vertical axis turned by θdir ∈ {−45°, 0°, 45°},
-weak or strong; every cell is repeated with a random walking speed, heading and phase.
+Forces (Figure 9 of the paper): a walking character is pushed once, for ``PUSH_S``, at the point of its
+figure at azimuth θpos ∈ {−45°, 0°, 45°} from its front (positive toward its left) and height
+h ∈ {0, 0.5, 1.0} m above the floor, in the direction pointing at its vertical axis turned by
+θdir ∈ {−45°, 0°, 45°}, weak or strong. Every cell of that grid is repeated with a random walking speed,
+heading and walking phase (time of the push). The pushes act on the figure's outline
+(``sim.mitake.body.figure_point``): at h = 0 that is the feet, spread like the drawn legs.
 
 What is recorded is only what a viewer sees, sampled at 30 Hz from ``BEFORE_S`` before the push to
 ``AFTER_S`` after, in the heading frame at the push: ``body_view`` gives the rigid body's position and
@@ -136,8 +138,8 @@ def _one_world(cells: list[tuple[int, int, float, bool]], weak: float, strong: f
                world_seed: int, base: CharacterSpec) -> list[Trial]:
     import dataclasses
 
-    from sim.body import figure_point
     from sim.config import WorldConfig
+    from sim.mitake.body import figure_point
     from sim.world import World
 
     cols = math.ceil(math.sqrt(len(cells)))

@@ -61,8 +61,8 @@ def generate(heights: np.ndarray, rng: np.random.Generator, blocks: int, walls: 
 
 def measure(terrains: int, walk_size: int, replan_size: int, replans: int, seed: int) -> dict[str, Any]:
     from jostle.bench.quadruped_trial import Trial
-    from sim.quadruped.grid import TerrainConfig
     from sim.quadruped.planner import PlanStatus
+    from sim.terrain import TerrainConfig
 
     rng = np.random.default_rng(seed)
     cfg = TerrainConfig(cell=0.3, nx=walk_size, ny=walk_size, origin=(0.0, 0.0), max_height=3)
@@ -167,8 +167,8 @@ def _replan_times(size: int, count: int, rng: np.random.Generator) -> tuple[list
     CPU time of what the locomotion does (cost-field update + local repair, else A* in full), the same
     in wall time, and CPU time of A* in full alone. CPU time (``time.thread_time``) because this machine
     is shared: wall time also counts the moments another process had the core."""
-    from sim.quadruped.grid import TerrainConfig, TerrainGrid
     from sim.quadruped.planner import CostField, Route, replan
+    from sim.terrain import TerrainConfig, TerrainGrid
 
     out: list[float] = []
     wall: list[float] = []

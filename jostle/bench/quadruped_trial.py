@@ -1,7 +1,7 @@
 """One quadruped walking a cube terrain to a goal, on its own pybullet client (tests and the bench).
 
 No Mitake characters, no people: the locomotion, its pybullet body and the terrain's twin, updated at
-``control_dt`` the way ``Quadrupeds.tick`` does, with the readings of the issue taken on pybullet's own
+``control_dt`` the way ``Quadrupeds.before_tick`` does, with the readings of the issue taken on pybullet's own
 toe links every update (penetration into the cubes, slip of stance feet) and the cost of an update.
 """
 
@@ -21,10 +21,10 @@ from sim.quadruped.body import QuadrupedBody
 from sim.quadruped.config import QuadrupedSpec
 from sim.quadruped.footsteps import MotionModel
 from sim.quadruped.gait import Locomotion
-from sim.quadruped.grid import TerrainBody, TerrainConfig, TerrainGrid
 from sim.quadruped.metrics import SlipMeter, penetration
 from sim.quadruped.planner import CostField, PlanCosts, PlanStatus
 from sim.quadruped.skeleton import Skeleton, load_laikago
+from sim.terrain import TerrainBody, TerrainConfig, TerrainGrid
 
 
 @dataclass

@@ -58,8 +58,8 @@ def measure(n: int, seconds: float, physics_hz: float = 240.0, control_hz: float
     import numpy as np
     import pybullet as p
 
-    from sim.body import create_body, create_shape, write_velocities
     from sim.config import CharacterSpec, WorldConfig
+    from sim.mitake.body import create_body, create_shape, write_velocities
     from sim.physics import open_client
     from sim.world import World
 

@@ -53,7 +53,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     import_pybullet_quietly()  # (its banner)
     from jostle.config import ConfigError, load_config
     from jostle.terrain_wiring import grid_config
-    from sim.quadruped.grid import TerrainGrid
+    from sim.terrain import TerrainGrid
 
     cfg = load_config(args.config)
     if cfg.terrain is None:

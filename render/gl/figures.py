@@ -38,11 +38,13 @@ class Figures:
     """Poses snapshots' characters into capsules, remembering what a fade between behaviours needs.
 
     ``com_fraction``: one for all, or by character name or kind (key ``"*"`` for the rest), each in
-    (0, 1); ``flash_newtons``: the contact force at which a pushed character glows fully.
+    (0, 1), or None: each snapshot's ``com_height`` over its height; ``flash_newtons``: the contact force at which a pushed character glows fully.
     """
 
-    def __init__(self, com_fraction: float | Mapping[str, float], colours: Colours, flash_newtons: float) -> None:
-        fractions = com_fraction.values() if isinstance(com_fraction, Mapping) else [com_fraction]
+    def __init__(self, com_fraction: float | Mapping[str, float] | None, colours: Colours,
+                 flash_newtons: float) -> None:
+        fractions = com_fraction.values() if isinstance(com_fraction, Mapping) else [
+            0.5 if com_fraction is None else com_fraction]
         if not all(0.0 < f < 1.0 for f in fractions):
             raise ValueError(f"com_fraction: expected fractions in (0, 1), got {com_fraction!r}")
         self.com_fraction = com_fraction
@@ -90,8 +92,8 @@ class Figures:
 
     def _com_fraction(self, c: CharacterSnapshot) -> float:
         f = self.com_fraction
-        if not isinstance(f, Mapping):
-            return float(f)
+        if not isinstance(f, Mapping):  # None: from the snapshot
+            return float(f) if f is not None else 0.5 if c.com_height is None else c.com_height / c.height
         return float(f.get(c.name, f.get(getattr(c, "kind", ""), f.get("*", 0.5))))
 
     @staticmethod

@@ -71,7 +71,7 @@ class Renderer:
     ``style``: camera, colours and what is drawn (``render.gl.style``); ``camera``/``samples``/
     ``flash_newtons`` override it. ``com_fraction``: height of the sim body's centre of mass above its
     base over its height (``CharacterSpec.com_height / height``), so the figures' feet meet the floor;
-    one for all, or by character name or kind (key ``"*"`` for the rest); see ``render.gl.figures``.
+    one for all, or by character name or kind (key ``"*"`` for the rest), or None: each snapshot's ``com_height``; see ``render.gl.figures``.
     """
 
     def __init__(
@@ -85,7 +85,7 @@ class Renderer:
         camera: Camera | None = None,
         style: RenderStyle | None = None,
         stage_x: tuple[float, float] = (-3.0, 3.0),
-        com_fraction: float | Mapping[str, float] = 0.5,
+        com_fraction: float | Mapping[str, float] | None = 0.5,
         flash_newtons: float | None = None,
         exit_keys: str | None = None,
     ) -> None:

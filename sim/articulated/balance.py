@@ -11,14 +11,8 @@
   under the displaced body.
 - Step timing: staggering, the clip plays faster while the body heads toward the stance foot's side
   (``hurried_rate``).
-
-Without the walking assist on the pelvis (``sim.articulated.assist``) it does not walk: measured, with
-the torso pair alone (``torso_kp`` 500–3000, ``torso_kd`` 10–300, with or without the stance hip's own
-PD) it falls within 0.15–0.7 s; with the torso control moved into the stance hip's stable-PD target (the
-hip rotation that would put the pelvis at its desired world orientation, no pair, no assist; stance hip
-gain 0.5–2) within 1.2–1.3 s. An assist-free walker needs its foot placement retuned with it.
-
-Everything here is pure numpy on stage-frame quantities; the character applies the results. Source-frame
+Everything here is pure numpy on stage-frame quantities; the character applies the results (why the walking
+assist is needed: docs/notes/articulated-balance.md). Source-frame
 axes of the body (DeepMimic, Y up): x forward, y up, z to the right.
 """
 

@@ -26,10 +26,11 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import pybullet as p
 
+from interaction.types import Vec3
 from sim.articulated.joint_limit import limit_ranges
-from sim.articulated.skeleton import ArticulatedLink, ArticulatedSkeleton, Quat, Vec3
-from sim.body import GROUP_CHARACTER, MASK_CHARACTER
+from sim.articulated.skeleton import ArticulatedLink, ArticulatedSkeleton, Quat
 from sim.motion import quaternion as quat
+from sim.physics import GROUP_CHARACTER, MASK_CHARACTER
 
 _Y_UP_TO_Z_UP: Quat = (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))  # +90° about x: source y → stage z
 

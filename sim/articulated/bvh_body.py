@@ -10,14 +10,6 @@
 - shapes: a capsule from each joint to its child's joint (to the end site at a leaf; the pelvis spans
   the two hip joints), radii by body part scaled with the figure's height; feet are boxes (a flat sole
   to stand on, as the DeepMimic humanoid's).
-- masses: the seed's table 4.1 for a 70 kg adult (hip 4.3, upper leg 6.6, lower leg 3.2, foot 1.0, hip-to-
-  torso 4.3, torso 15, neck 2.5, head 5.2 — the table's "Hand" row, 20 cm long, is the head —, shoulder
-  2.5, upper arm 2.2, lower arm 1.7 kg) shared among the links of each part by length, hands 0.4 kg and
-  toes 0.2 kg (not in the table), then all scaled to ``total_mass``.
-- joint kinds (the seed's §3.2): ball at the first spine joint ("chest" channel) and the neck, universal at
-  the hips, ankles and shoulders, hinge at the knees (0 … 2.5 rad) and elbows (−2.7 … 0 rad) about the
-  character's left; every other joint (extra spine joints, clavicles, head, toes, hands) is fixed.
-  Swing/twist/side limits of ball and universal joints are the DeepMimic humanoid's (``HUMANOID_JOINTS``).
 - ``clip``: the motion as a ``MotionClip`` in ``sim.motion.mocap.JOINTS`` order, ready for the same PD
   tracking as a DeepMimic clip. A moving joint's channel is the product of the BVH rotations from just
   below its nearest moving ancestor down to it, so every moving link's orientation is exact; fixed joints
@@ -142,7 +134,17 @@ def bvh_body(motion: BvhMotion, *, total_mass: float = 70.0, name: str = "bvh", 
              link_names: Literal["bvh", "channels"] = "bvh") -> BvhBody:
     """Build the body and its clip from a parsed BVH (``sim.motion.bvh.read_bvh``); ``loop``: the clip is
     a cycle (BVH cannot say so). ``link_names="channels"`` names each moving link after its motion channel
-    ("right_hip", …; the others keep their BVH names), for code that finds links by the DeepMimic names."""
+    ("right_hip", …; the others keep their BVH names), for code that finds links by the DeepMimic names.
+
+    - masses: the seed's table 4.1 for a 70 kg adult (hip 4.3, upper leg 6.6, lower leg 3.2, foot 1.0, hip-to-
+      torso 4.3, torso 15, neck 2.5, head 5.2 — the table's "Hand" row, 20 cm long, is the head —, shoulder
+      2.5, upper arm 2.2, lower arm 1.7 kg) shared among the links of each part by length, hands 0.4 kg and
+      toes 0.2 kg (not in the table), then all scaled to ``total_mass``.
+    - joint kinds (the seed's §3.2): ball at the first spine joint ("chest" channel) and the neck, universal at
+      the hips, ankles and shoulders, hinge at the knees (0 … 2.5 rad) and elbows (−2.7 … 0 rad) about the
+      character's left; every other joint (extra spine joints, clavicles, head, toes, hands) is fixed.
+      Swing/twist/side limits of ball and universal joints are the DeepMimic humanoid's (``HUMANOID_JOINTS``).
+    """
     if not total_mass > 0:
         raise ValueError(f"total_mass: expected > 0 kg, got {total_mass}")
     if motion.local_rotations is None:

@@ -1,20 +1,13 @@
 """One articulated character: a multibody tracking a source motion, balancing, taking pushes, getting up.
 
-Call ``step_control(dt)`` before every physics step (pybullet clears joint torques and external forces
-after each ``stepSimulation``). The state machine (``sim.snapshot.CharacterState``):
-
-    WALK ──push / load ≥ stagger_load──▶ STAGGER ──load < recover_load for recover_hold_s──▶ WALK
-    WALK, STAGGER ──pelvis tilt ≥ fall_tilt_deg, root below fall_height or load ≥ fall_load──▶ FALL (limp: ragdoll_gain)
-    FALL ──still for still_hold_s──▶ LIE ──lie_duration_s──▶ STAND_UP (getup_faceup / getup_facedown)
-    STAND_UP ──clip done, upright──▶ WALK        STAND_UP ──tilted over or getup_timeout_s──▶ FALL
-
 The walking clip loops; each pass is re-anchored at the character's current position and heading (the
 loop continues from where the character is, no snapping back). Joint targets blend over ``BLEND_S`` from
 the pose the character is in whenever a new clip starts; after a get-up the walk starts at the frame of
 the supporting foot's stance with the feet closest together, blending over only ``spec.walk_in_blend_s``
 (lingering in the get-up's crouch made it fall again), with ``walk_in_assist`` × the pelvis torque limit for
 ``walk_in_s`` (and, after the face-up get-up, a speed help: ``walk_in_force_faceup_n``); rising from the
-face-up get-up the root is held over the feet as in the clip (``sim.articulated.getup``); foot placement ignores being slower than the clip beyond ``SLOW_MS``. Staggering after a push,
+face-up get-up the root is held over the feet as in the clip (``sim.articulated.getup``); foot placement
+ignores being slower than the clip beyond ``SLOW_MS`` (``sim.articulated.walking``). Staggering after a push,
 the stance hip is stiffer (``stagger_stance_hip_gain``) and the clip plays faster while the capture point is
 toward the stance foot's side (``stagger_hurry``: the crossing step lands sooner, the leg on the side the body
 goes to steps out sooner). Balance: ``sim.articulated.balance``; bounded root help: ``sim.articulated.assist``.
@@ -29,8 +22,8 @@ import math
 import numpy as np
 import pybullet as p
 
-from sim.articulated import assist, getup
 from sim.articulated import balance as bal
+from sim.articulated import getup
 from sim.articulated import quat1 as q1
 from sim.articulated.build import build_multibody, source_to_stage
 from sim.articulated.pushes import LinkPushes
@@ -41,6 +34,7 @@ from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
 from sim.articulated.states import Readings, next_state
 from sim.articulated.tracking import JointTracker, PDCommand
+from sim.articulated.walking import WalkingBalance
 from sim.motion import quaternion as quat
 from sim.motion.mocap import MotionClip, pybullet_motion_path
 from sim.snapshot import CharacterState, LinkPose
@@ -48,17 +42,44 @@ from sim.snapshot import CharacterState, LinkPose
 BLEND_S = 0.4  # s: joint targets blend from the current pose when a clip starts
 YAW_SHARE = 0.2  # the torso control turns toward the clip's heading by this share of the error
 TURN_RATE = 0.6  # rad/s: how fast steering turns the clip's frame (1.0 makes it fall: measured)
-SLOW_MS = 0.1  # m/s: foot placement ignores being slower than the clip beyond this (measured: 0 and 0.3 worse)
-_REACH_M = 1.0  # m: capture-point distance from the clip's place over the stance foot at balance load 1
-_G = 9.81
 
 
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-class ArticulatedCharacter:
-    """See the module docstring. ``position`` (stage x, y) and ``heading`` (yaw from +x) place it."""
+class ArticulatedCharacter(WalkingBalance):
+    """A multibody tracking its clip; ``position`` (stage x, y) and ``heading`` (yaw from +x) place it.
+
+    Call ``step_control(dt)`` before every physics step (pybullet clears joint torques and external forces
+    after each ``stepSimulation``). The state machine (``sim.snapshot.CharacterState``):
+
+        WALK ──push / load ≥ stagger_load──▶ STAGGER ──load < recover_load for recover_hold_s──▶ WALK
+        WALK, STAGGER ──pelvis tilt ≥ fall_tilt_deg, root below fall_height or load ≥ fall_load──▶ FALL (limp: ragdoll_gain)
+        FALL ──still for still_hold_s──▶ LIE ──lie_duration_s──▶ STAND_UP (getup_faceup / getup_facedown)
+        STAND_UP ──clip done, upright──▶ WALK        STAND_UP ──tilted over or getup_timeout_s──▶ FALL
+
+    Use (what benchmarks and tests do)::
+
+        from sim.articulated.character import ArticulatedCharacter
+        from sim.articulated.recovery import advance
+        from sim.articulated.skeleton import deepmimic_humanoid
+        from sim.articulated.spec import ArticulatedSpec
+
+        ch = ArticulatedCharacter(client, deepmimic_humanoid(), ArticulatedSpec(), clip=None,
+                                  position=(x, y), heading=yaw)   # clip None: spec.walk_clip
+        for each physics step:
+            advance(client, [ch, ...], physics_dt)  # sim.articulated.recovery: control + stepSimulation, split
+                                                    # into ch.wanted_substeps while one recovers from a push
+        ch.push(link, force_xyz, duration)      # link: skeleton index or name ("root" is the pelvis)
+        ch.state                                # sim.snapshot.CharacterState
+        ch.tracking_error_deg()                 # mean |angle| between driven joints and the clip, now
+        ch.joint_angles()                       # (12, 4) local rotations, x y z w, ch.driven order
+        ch.limit_excess()                       # radians beyond the joint limits now (0 inside)
+        ch.external_assist_peak_n, ch.external_assist_peak_nm   # largest root assist force / torque used
+        ch.falls, ch.getups                     # counters
+        ch.com_state(), ch.root(), ch.link_poses(), ch.body (pybullet id)
+    """
 
     def __init__(self, client: int, skeleton: ArticulatedSkeleton, spec: ArticulatedSpec,
                  clip: MotionClip | None = None, position: tuple[float, float] = (0.0, 0.0),
@@ -308,88 +329,6 @@ class ArticulatedCharacter:
         self._cmd = self.tracker.command(targets, omegas, scale)
         self._assist(r, root, orn, omega_a, desired_root)
         self._update_state(root, orn, dt)
-
-    def _foot_contacts(self) -> tuple[bool, bool]:
-        """(right foot touches something, left foot touches something)."""
-        assert self._feet is not None
-        return self.readout.touches(self._feet[0]), self.readout.touches(self._feet[1])
-
-    def _support_left(self) -> bool:
-        """Which foot carries the body: the one touching the ground, else the one nearer below the com."""
-        if self._feet is None:
-            return False
-        right, left = self._foot_contacts()
-        if right != left:
-            return left
-        com, _ = self.com_state()
-        coms = self.readout.link_coms()
-        d = [float(np.linalg.norm((coms[f] - com)[:2])) for f in self._feet]
-        return bool(d[1] < d[0])
-
-    def _balance(self, r: ReferencePose, root: np.ndarray, orn: np.ndarray, omega: np.ndarray,
-                 desired_root: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        s = self._gains
-        assert self._feet is not None
-        right_on, left_on = self._foot_contacts()
-        stance_left = left_on if right_on != left_on else r.stance_left  # the ground decides when it can
-        self._stance_left = stance_left
-        stance_foot = self._feet[1] if stance_left else self._feet[0]
-        swing_hip, stance_hip = (self._hips[0], self._hips[1]) if stance_left else (self._hips[1], self._hips[0])
-        ankle = self.readout.joint_position(stance_foot)
-        vel, _ = self.readout.base_velocity()
-        heading = bal.heading_of(desired_root)
-        d_fwd, d_right = bal.heading_frame(heading, root - ankle)
-        v_fwd, v_right = bal.heading_frame(heading, np.array(vel))
-        dd = np.array([d_fwd, d_right]) - r.d_ref
-        dv = np.array([v_fwd, v_right]) - r.v_ref
-        h = max(float(root[2] - ankle[2]), 0.3)
-        self.load = float(np.linalg.norm(dd + dv * math.sqrt(h / _G))) / _REACH_M
-        self._dd, self._dv, self._heading = dd, dv, heading
-        if self._staggering():
-            self._rate = bal.hurried_rate(float(dd[1] + dv[1] * math.sqrt(h / _G)), stance_left, s.stagger_hurry,
-                                          s.stagger_hurry_max)
-        targets = r.rots.copy()
-        k_sw = self._drv_pos[swing_hip]
-        # slower than the clip (walking off from a stand) by more than a deficit of SLOW_MS: shorter steps
-        # would only slow it more, so placement ignores the rest
-        v_sag = max(float(dv[0]), -SLOW_MS)
-        place = bal.placement_rotation(dd[0], dd[1], v_sag, dv[1], s.cd_sagittal, s.cv_sagittal,
-                                       s.cd_coronal, s.cv_coronal)
-        # swing thigh in the world: through the desired pelvis frame, whatever the actual pelvis does
-        world = q1.mul(desired_root, q1.mul(place, r.rots[k_sw]))
-        targets[k_sw] = q1.mul(q1.conj(orn), world)
-        self._modified.append(k_sw)
-        k_st = self._drv_pos[stance_hip]
-        scale[k_st] = s.stagger_stance_hip_gain if self._staggering() else s.stance_hip_gain
-        k_an = self._drv_pos[stance_foot]
-        if s.ankle_gain > 0 or s.ankle_gain_coronal > 0:
-            turn = bal.ankle_rotation(dd[0], dd[1], s.ankle_gain, s.ankle_gain_coronal)
-            targets[k_an] = q1.mul(turn, r.rots[k_an])
-            self._modified.append(k_an)
-        torso = bal.orientation_torque(desired_root, orn, omega, s.torso_kp, s.torso_kd)
-        return targets, bal.clamp_norm(torso, s.gains("hip")[2])
-
-    def _staggering(self) -> bool:
-        """Taking a push while walking (the stagger strategies are for that, not for walking off from a
-        stand after a get-up, which has its own help: ``walk_in_*``)."""
-        return self.state == CharacterState.STAGGER and self.ref is self.walk and self._walk_in() >= 1.0
-
-    def _assist(self, r: ReferencePose, root: np.ndarray, orn: np.ndarray, omega: np.ndarray,
-                desired_root: np.ndarray) -> None:
-        vel, _ = self.readout.base_velocity()
-        rising = None  # rising from the face-up get-up's crouch: the root over the feet as in the clip
-        if self.state == CharacterState.STAND_UP and self.getup_face_up and self._feet is not None:
-            rising = getup.root_offset(self.readout, self._feet, r, desired_root, self.spec.getup_place_tilt_deg)
-        torque, force = assist.root_help(
-            self._gains, self.state, self._walk_in() < 1.0, self._feet is not None, desired_root, orn, omega,
-            self._dd, self._dv, self._heading, (float(q1.rot(self._up, r.root_pos)[2]), float(root[2]), float(vel[2])),
-            rising, bool(self.getup_face_up))
-        if torque is not None:
-            self._torques.append((-1, torque.tolist()))
-            self.external_assist_peak_nm = max(self.external_assist_peak_nm, float(np.linalg.norm(torque)))
-        if force is not None:
-            self._forces.append((-1, force.tolist(), self.readout.base_com()))
-            self.external_assist_peak_n = max(self.external_assist_peak_n, float(np.linalg.norm(force)))
 
     def _update_state(self, root: np.ndarray, orn: np.ndarray, dt: float) -> None:
         vel, _ = self.readout.base_velocity()

@@ -17,9 +17,6 @@ In the skeleton's frames (source frame at rest; y up for DeepMimic and BVH bodie
 body) a bone points along ±y, so the engine's three angles are: x, the sideways swing (abduction, side
 bend, ankle roll); y (an asin, so within ±90°), the turn about the bone; z, the front-back swing (flexion,
 ankle pitch; to ±180°). ``limit_ranges`` gives them ``side_limit``, ``twist_limit`` and ``swing_limit``.
-Turning the link frames so that z lies along the bone instead was tried: pybullet's stable PD is not
-invariant to such a turn (one step of the same drive in a turned and an unturned body differs by 1 cm), and
-the character no longer walked.
 """
 
 from __future__ import annotations

@@ -1,56 +1,16 @@
 """Recovering from a push: finer physics steps, the recovery's gains and braced joints, until it walks again.
 
-pybullet holds joint limits with soft constraint rows (``sim.articulated.tracking``): at the world's 1/240 s a
-push carries a hip 10–20° past its range. The joint drive evaluated at a finer step holds the joints inside
-(pybullet's own ``numSubSteps``, which holds the drive's torques between sub-steps, does not: measured). So
-(``spec.recovery_substeps``, 8 by default; 1: never), from a push, a person's contact, a stagger or a fall
-on, a character asks for that many physics steps per world step (``wanted_substeps``), and whoever steps the
-world (``sim.world.World``, ``jostle bench ragdoll``, tests: ``advance``) steps every body that finely while
-any character asks. At the finer step the body is stiffer and the walking gains no longer balance it, so
-while it recovers, or is stepped finely for another's recovery (``stepped_finely``), a character uses
-``recovering_spec``: foot placement's velocity gains ``recovery_cv_sagittal`` / ``recovery_cv_coronal``, the
-pelvis torque limit ``recovery_assist_torque_max_nm``, and state loads of its own: ``recovery_fall_load``
-(beyond it, it gives up and falls: without it, it took forward pushes of 500–1000 N, where DeepMimic's policy
-takes 240), ``recovery_stagger_load`` / ``recovery_recover_load`` (at the finer step its walk has balance
-loads of 0.5–0.8 once a stride, where at the world's step 0.2–0.5: with the walking 0.8 / 0.5 it never
-stopped staggering).
-Its joints (``Recovery.brace``): falling or lying, the neck keeps ``recovery_neck_gain`` of its gains (limp,
-a face-down landing bent it 10.5° past its limit) and every joint within ``brace_margin_deg`` of a limit is
-held where it is, that far inside, at ``brace_gain`` × its gains and torque limit (a limp body that stiffens
-only where it would bend past: falls went from 4–5.5° past to under 0.9°; at 1×, a body lying on its arm
-bent the shoulder 5.8° past its 100 N·m, at 2× 0.7°); upright or getting up, a joint past a limit is driven
-``limit_stop_inside_deg`` back inside at ``limit_stop_gain`` × its gains and torque limit (a shoulder
-carrying the body in a get-up went 7.4° past at its own 100 N·m).
-It settles once it has walked (not staggered) unpushed, and not walking off from a stand, for
-``recovery_settle_s``; then, for ``recovery_handover_s``, it stays at the finer step while its balance
-gains blend into the walking ones (its state loads kept), and only then goes back to the world's step.
-Going back in one jump was a jolt that felled it (240 N forward at one phase: 4.9° past a limit in the
-first 1/4 s at the world's step, a fall 1 s later). Handing over with the recovery's gains at the world's
-step: 7.0° past and a fall within 1 s (the same push); with the walking gains at the finer step: after the
-get-ups of 700 N forward and backward, a stagger and a fall within 2 s (measured).
-
-Measured, ``jostle bench ragdoll --phases 8`` (with ``--recovery-substeps 1`` in brackets):
-- joints at most 3.15° past a limit (28.3°): unpushed 0, after pushes survived 0.47, felled 1.06, fallen
-  3.15 (a shoulder in one get-up of 16), walking off 0.09°; the default 4 phases: 1.09° (22.4°);
-- pushes survived forward 460 N (220), sideways 400 N (300); get-ups 16 of 16, walk-offs 16 of 16; largest
-  assist 300 N (the get-up's lift at its bound) and 300 N·m;
-- the five pushes of tests/test_articulated_recovery.py (taken by stepping each way; falls forward,
-  backward and sideways with the get-up and the walk on): at most 0.0 / 0.0 / 0.35 / 1.07 / 0.62° past.
-The walk before a push runs at the world's step: ``cost_ratio_vs_baseline`` (unpushed walking) is unchanged.
-Tried and not kept: 16 substeps (9.2° while staggering, 3.7° falling); falls braced whole (every joint at
-0.5 / 0.3 of its gains: 0 / 6 of 8 get-ups, the body never lying still); ``recovery_cv_sagittal`` 0.2 – 0.5;
-finer steps only while staggering, falling, lying or getting up (26.9°, and pushes of 40–100 N felled it:
-switching back and forth mid-stride is what fells it); each joint set back onto its limit after every step
-(``sim.articulated.tracking``).
-
-Weak:
-- Cost: while any character recovers, every body's physics is stepped 8 times: 4 walkers, one of them kept
-  recovering, take 3.3–4.3× the wall time of the 4 alone (the bench's ``recovery_cost_ratio``: 3.73 in the
-  run above); at the world's step those 4 ran 2.7–5.5× faster than real time on this 2-core machine.
-- "Never past a limit" holds to the engine's give, not to zero: up to 3.2° in one get-up of 16, 2.1° in a
-  hip toppling in the last 1/100 s before a fall (tests/test_articulated_walkoff.py).
-- It takes bigger pushes than DeepMimic's policy (460 / 400 N at the weakest phase, 840 N sideways at
-  one): the recovery's gains at the finer step are stiffer than the walk's.
+From a push, a person's contact, a stagger or a fall on, a character asks for ``spec.recovery_substeps``
+physics steps per world step (``wanted_substeps``; 1: never), and whoever steps the world (``World``,
+``jostle bench ragdoll``, tests: ``advance``) steps every body that finely while any character asks.
+While it recovers, or is stepped finely for another's recovery (``stepped_finely``), a character uses
+``recovering_spec``: its own foot-placement gains, pelvis torque limit and state loads. Its joints
+(``Recovery.brace``): falling or lying, the neck goes limp to ``recovery_neck_gain`` and every joint
+within ``brace_margin_deg`` of a limit is held where it is at ``brace_gain`` × its gains; upright or
+getting up, a joint past a limit is driven ``limit_stop_inside_deg`` back inside. It settles after
+``recovery_settle_s`` of unpushed walking, then hands over to the walking gains over
+``recovery_handover_s`` (s) before going back to the world's step.
+Why, with the figures measured, what was tried and its weaknesses: docs/notes/recovery.md.
 """
 
 from __future__ import annotations

@@ -11,35 +11,6 @@
 ``sim/articulated/build.py: build_multibody(client, skeleton, position, orientation) -> body id`` turns any
 skeleton into one pybullet multibody (``createMultiBody``; link i of the skeleton is pybullet link i − 1,
 link 0 is the base). A BVH reader therefore only has to produce an ``ArticulatedSkeleton``.
-
-Conventions (follow them when building one from another source):
-
-- The skeleton is described in its **source frame** in the rest pose (all joint rotations identity):
-  ``up_axis`` says which axis is up there ("y" for DeepMimic and BVH, "z" for stage-native bodies).
-  The builder turns the whole body so that ``up_axis`` becomes stage z; the stage frame is metres, z up.
-  Forward in the rest pose is source +x (the DeepMimic clips walk along +x).
-- Link 0 is the root (pelvis), ``parent == -1``, ``kind == "root"``: the free-floating base.
-  Every other link has ``parent < its own index`` (parents before children).
-- ``joint_offset``: the joint's position in the **parent link's frame** (the parent's joint), metres.
-  A link's frame has its origin at its joint and is parallel to the parent's frame in the rest pose.
-- ``com``: centre of mass in the link's frame; ``inertia``: diagonal of the inertia tensor about the com in
-  the link frame (kg·m²). ``mass`` in kg.
-- ``shape``: collision shape: "sphere" (size = (radius,)), "capsule" (size = (radius, length between the
-  cap centres)) or "box" (size = half extents (x, y, z)); centred at ``shape_offset`` in the link frame and
-  turned by ``shape_rotation`` (x, y, z, w) — pybullet capsules lie along their local z.
-- Joint kinds (the seed's table 3.1): "ball" 3 DOF (pelvis–torso, neck), "universal" 2 DOF (hips, ankles,
-  shoulders), "hinge" 1 DOF about ``axis`` (knees, elbows), "fixed" 0 DOF (wrists: a rigid end link).
-  In pybullet ball and universal joints are both spherical joints; a universal joint is a ball joint
-  whose twist about ``twist_axis`` (the bone direction) is held inside ``twist_limit``.
-- Limits (radians): hinge ``lower`` ≤ angle ≤ ``upper`` about ``axis``; ball/universal: the front-back swing
-  within ±``swing_limit``, the twist about the bone (``twist_axis``) within ±``twist_limit`` and the
-  sideways swing within ±``side_limit``, each as pybullet's spherical joint limit measures it
-  (``sim.articulated.joint_limit``; pybullet enforces them).
-- ``motion_channel``: which channel of a source motion drives the joint, by name in
-  ``sim.motion.mocap.JOINTS`` ("chest", "right_hip", …), or "" when none does (the joint holds its rest pose).
-- ``gain_group``: which row of the PD gain table applies ("hip", "knee", "ankle", "torso", "neck",
-  "shoulder", "elbow"; the seed's groups), "" for none (fixed joints).
-- ``foot``: "right" / "left" for the two foot links (balance uses them), "" otherwise.
 """
 
 from __future__ import annotations
@@ -50,7 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-Vec3 = tuple[float, float, float]
+from interaction.types import Vec3
+
 Quat = tuple[float, float, float, float]  # x, y, z, w
 
 JointKind = Literal["root", "ball", "universal", "hinge", "fixed"]
@@ -103,7 +75,37 @@ class ArticulatedLink:
 
 @dataclass(frozen=True)
 class ArticulatedSkeleton:
-    """A tree of links, root first (see the module docstring for every convention)."""
+    """A tree of links, root first.
+
+    Conventions (follow them when building one from another source):
+
+    - The skeleton is described in its **source frame** in the rest pose (all joint rotations identity):
+      ``up_axis`` says which axis is up there ("y" for DeepMimic and BVH, "z" for stage-native bodies).
+      The builder turns the whole body so that ``up_axis`` becomes stage z; the stage frame is metres, z up.
+      Forward in the rest pose is source +x (the DeepMimic clips walk along +x).
+    - Link 0 is the root (pelvis), ``parent == -1``, ``kind == "root"``: the free-floating base.
+      Every other link has ``parent < its own index`` (parents before children).
+    - ``joint_offset``: the joint's position in the **parent link's frame** (the parent's joint), metres.
+      A link's frame has its origin at its joint and is parallel to the parent's frame in the rest pose.
+    - ``com``: centre of mass in the link's frame; ``inertia``: diagonal of the inertia tensor about the com in
+      the link frame (kg·m²). ``mass`` in kg.
+    - ``shape``: collision shape: "sphere" (size = (radius,)), "capsule" (size = (radius, length between the
+      cap centres)) or "box" (size = half extents (x, y, z)); centred at ``shape_offset`` in the link frame and
+      turned by ``shape_rotation`` (x, y, z, w) — pybullet capsules lie along their local z.
+    - Joint kinds (the seed's table 3.1): "ball" 3 DOF (pelvis–torso, neck), "universal" 2 DOF (hips, ankles,
+      shoulders), "hinge" 1 DOF about ``axis`` (knees, elbows), "fixed" 0 DOF (wrists: a rigid end link).
+      In pybullet ball and universal joints are both spherical joints; a universal joint is a ball joint
+      whose twist about ``twist_axis`` (the bone direction) is held inside ``twist_limit``.
+    - Limits (radians): hinge ``lower`` ≤ angle ≤ ``upper`` about ``axis``; ball/universal: the front-back swing
+      within ±``swing_limit``, the twist about the bone (``twist_axis``) within ±``twist_limit`` and the
+      sideways swing within ±``side_limit``, each as pybullet's spherical joint limit measures it
+      (``sim.articulated.joint_limit``; pybullet enforces them).
+    - ``motion_channel``: which channel of a source motion drives the joint, by name in
+      ``sim.motion.mocap.JOINTS`` ("chest", "right_hip", …), or "" when none does (the joint holds its rest pose).
+    - ``gain_group``: which row of the PD gain table applies ("hip", "knee", "ankle", "torso", "neck",
+      "shoulder", "elbow"; the seed's groups), "" for none (fixed joints).
+    - ``foot``: "right" / "left" for the two foot links (balance uses them), "" otherwise.
+    """
 
     name: str
     links: tuple[ArticulatedLink, ...]

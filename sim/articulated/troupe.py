@@ -1,25 +1,29 @@
-"""The articulated characters of one ``World``: added, stepped every physics step, pushed, snapshotted.
+"""The articulated characters of one world as a ``sim.population.Population``.
 
-``World`` owns one ``ArticulatedCharacters`` and calls it at four points: ``add`` (from
-``World.add_character`` when the spec is an ``ArticulatedSpec``), ``before_physics_step`` (before every
-``stepSimulation``), ``after_tick`` (after a control tick's substeps: state changes, travelled distances)
-and ``snapshots``. People's contactors hit the links physically (the contactor pool's bodies collide with
-every character link); their contact forces come back through ``bodies`` (body id → name) like the
-Mitake characters', and a contact episode that is a push makes the character stagger.
+Their control runs before every physics step (``before_substep``), finer while one recovers
+(``substeps``, ``sim.articulated.recovery``); after a tick's substeps, state changes and travelled
+distances (``after_tick``). People's contactors hit the links physically (the contactor pool's bodies
+collide with every character link); their contact forces come back through ``bodies`` (body id → name)
+like the Mitake characters', and a contact episode that is a push makes the character stagger.
+Pads' impulses do not act on them; a strike pushes the link nearest its point.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import pybullet as p
 
+from interaction.types import Impulse
 from sim.articulated import balance as bal
 from sim.articulated.character import ArticulatedCharacter
 from sim.articulated.recovery import any_recovering, substeps_of
 from sim.articulated.skeleton import ArticulatedSkeleton, deepmimic_humanoid
 from sim.articulated.spec import ArticulatedSpec
+from sim.population import Footprint, Tick
 from sim.snapshot import CharacterSnapshot, CharacterState, ContactEvent, StateChange
 
 _DOWN = (CharacterState.FALL, CharacterState.LIE, CharacterState.BRAKE)
@@ -46,7 +50,10 @@ class ArticulatedCharacters:
     def __len__(self) -> int:
         return len(self.characters)
 
-    def add(self, name: str, spec: ArticulatedSpec, position: tuple[float, float], heading: float) -> str:
+    def add(self, name: str, spec: Any, position: tuple[float, float], heading: float, t: float,
+            **options: Any) -> None:
+        """It walks its clip: it takes no options."""
+        assert isinstance(spec, ArticulatedSpec)
         if spec.skeleton not in self._skeletons:
             self._skeletons[spec.skeleton] = deepmimic_humanoid()
         ch = ArticulatedCharacter(self._client, self._skeletons[spec.skeleton], spec, None, position, heading)
@@ -55,10 +62,24 @@ class ArticulatedCharacters:
         self._states[name] = ch.state
         self._travel[name] = [0.0, 0.0]
         self._force[name] = 0.0
-        return name
+
+    def footprints(self) -> Iterable[Footprint]:
+        return ()
+
+    def reach(self, position: tuple[float, float, float]) -> float | None:
+        return None
+
+    def impulse(self, impulse: Impulse, t: float) -> None:
+        raise ValueError("articulated characters take no pad impulses")
+
+    def before_tick(self, tick: Tick) -> None:
+        pass
+
+    def counts(self) -> Mapping[str, int]:
+        return {}
 
     def strike(self, name: str, force: tuple[float, float, float], duration: float,
-               at: tuple[float, float, float]) -> None:
+               at: tuple[float, float, float], t: float) -> None:
         """Push the link nearest ``at`` — body frame from the centre of mass (x forward, y left, z up)."""
         ch = self.characters[name]
         com, _ = ch.com_state()
@@ -68,7 +89,7 @@ class ArticulatedCharacters:
         point = (float(com[0] + c * at[0] - s * at[1]), float(com[1] + s * at[0] + c * at[1]), float(com[2] + at[2]))
         ch.push(ch.nearest_link(point), force, duration)
 
-    def before_physics_step(self, dt: float, recovering: bool = False) -> None:
+    def before_substep(self, dt: float, recovering: bool = False) -> None:
         """Every character's control for a physics step of ``dt`` (``recovering``: finer than the world's step
         for a character's recovery, ``sim.articulated.recovery.any_recovering``)."""
         for name, ch in self.characters.items():
@@ -76,12 +97,13 @@ class ArticulatedCharacters:
             ch.step_control(dt)
             self._force[name] = max(self._force[name], ch.last_push_force_n)
 
-    def contact_force(self, name: str, force: float) -> None:
-        """A person's contact force on ``name`` during a substep (for the snapshot's contact_force_n); a
-        touch starts its recovery (finer steps, ``sim.articulated.recovery``)."""
-        self._force[name] = max(self._force[name], force)
-        if force > 0.0:
-            self.characters[name].touched()
+    def after_substep(self, t: float, dt: float, forces: Mapping[tuple[str, int], float]) -> None:
+        """People's contact forces (for the snapshot's contact_force_n); a touch starts a recovery (finer
+        steps, ``sim.articulated.recovery``)."""
+        for (name, _), force in forces.items():
+            self._force[name] = max(self._force[name], force)
+            if force > 0.0:
+                self.characters[name].touched()
 
     def substeps(self) -> tuple[int, bool]:
         """Physics steps per world step the characters need now, and whether for a recovery (not only a
@@ -89,16 +111,17 @@ class ArticulatedCharacters:
         n = substeps_of(self.characters.values())
         return n, n > 1 and any_recovering(self.characters.values())
 
-    def notice(self, event: ContactEvent) -> None:
-        """A contact episode ended: a push makes the character stagger."""
-        ch = self.characters.get(event.character)
-        if ch is not None and event.push:
-            ch.staggered()
+    def notice(self, tick: Tick, ended: Sequence[ContactEvent]) -> None:
+        """Contact episodes that ended: a push makes the character stagger."""
+        for event in ended:
+            if event.push:
+                self.characters[event.character].staggered()
 
-    def threshold(self, name: str) -> float:
+    def push_threshold(self, name: str) -> float:
         return self.characters[name].spec.push_threshold_ns
 
-    def after_tick(self, t: float, control_dt: float, changes: list[StateChange]) -> None:
+    def after_tick(self, tick: Tick) -> None:
+        t, control_dt, changes = tick.t_end, tick.dt, tick.changes
         for name, ch in self.characters.items():
             before, after = self._states[name], ch.state
             if before != after:
@@ -120,7 +143,7 @@ class ArticulatedCharacters:
         elif ch.heading_goal is not None and abs(math.remainder(ch.heading_goal - heading, math.tau)) < 0.2:
             ch.steer(None)  # turned: walk on
 
-    def clear_forces(self) -> None:
+    def start_step(self) -> None:
         for name in self._force:
             self._force[name] = 0.0
 

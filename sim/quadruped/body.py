@@ -20,7 +20,7 @@ import numpy as np
 import pybullet as p
 from numpy.typing import NDArray
 
-from sim.body import GROUP_CHARACTER, MASK_CHARACTER
+from sim.physics import GROUP_CHARACTER, MASK_CHARACTER
 from sim.quadruped.gait import Pose
 from sim.quadruped.skeleton import LEGS, Skeleton
 

@@ -20,7 +20,7 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.quadruped.grid import Cell, TerrainGrid
+from sim.terrain import Cell, TerrainGrid
 
 Array = NDArray[np.float64]
 

@@ -30,11 +30,11 @@ from numpy.typing import NDArray
 
 from sim.quadruped.config import QuadrupedSpec
 from sim.quadruped.footsteps import MotionModel, choose_foothold, climb_ahead, turn_model, wrap
-from sim.quadruped.grid import Cell, TerrainGrid
 from sim.quadruped.legs import swing_control_points, swing_position
 from sim.quadruped.motion_models import BodyStyle
 from sim.quadruped.planner import CostField, Plan, PlanStatus, Route, replan
 from sim.quadruped.skeleton import LEGS, Skeleton
+from sim.terrain import Cell, TerrainGrid
 
 Array = NDArray[np.float64]
 

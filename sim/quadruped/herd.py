@@ -1,40 +1,41 @@
-"""The quadrupeds of a world and the terrain they walk on (the World's hook for issue H).
+"""The quadrupeds of a world as a ``sim.population.Population``, walking on the world's cube terrain.
 
-``Quadrupeds`` owns the cube grid (``TerrainGrid``), its pybullet twin (``TerrainBody``: every
-character collides with the cubes), the planner's cost field, and each quadruped's locomotion and body.
-Once per control tick, before the physics substeps (``tick``): the cells under every character are
-reserved (no cube there), each quadruped picks its goal (the nearest person on the terrain when
-``follow_people``, else its waypoints in a loop, else the goal it was given), is shoved by the people
-touching it, updates its procedural locomotion and is put in its pose. ``snapshots`` reports them on the
-World's contract (``CharacterSnapshot``, ``kind`` = the spec's name, ``links`` = every link's pose).
+``Quadrupeds`` holds each quadruped's locomotion and body and the planner's cost fields over the world's
+``TerrainGrid`` (``sim.terrain``: the world owns it and its pybullet twin). Once per control tick, before
+the physics substeps (``before_tick``): each quadruped reserves its cells, picks its goal (the nearest
+person on the terrain when ``follow_people``, else its waypoints in a loop, else the goal it was given),
+is shoved by the people touching it, updates its procedural locomotion and is put in its pose.
+``snapshots`` reports them on the World's contract (``CharacterSnapshot``, ``kind`` = the spec's name,
+``links`` = every link's pose). Pads and strikes do not act on them; people push them by touch.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pybullet as p
 from numpy.typing import NDArray
 
-from sim.inputs import SafeContactor
+from interaction.types import Contactor, Impulse
+from sim.population import Footprint, Tick
 from sim.quadruped.body import BodyMode, QuadrupedBody
 from sim.quadruped.config import QuadrupedSpec
 from sim.quadruped.gait import Locomotion, Pose
-from sim.quadruped.grid import TerrainBody, TerrainConfig, TerrainGrid
-
-__all__ = ["Member", "Quadrupeds", "TerrainConfig"]
 from sim.quadruped.metrics import SlipMeter, penetration
 from sim.quadruped.planner import CostField, PlanCosts
 from sim.quadruped.skeleton import load_laikago
-from sim.snapshot import CharacterSnapshot, CharacterState, LinkPose
+from sim.snapshot import CharacterSnapshot, CharacterState, ContactEvent, LinkPose
+from sim.terrain import TerrainGrid
+
+__all__ = ["Member", "Quadrupeds"]
 
 Array = NDArray[np.float64]
 
 _PUSH_TRANSFER = 0.35  # share of a touching person's approach speed handed to the body per tick
-_RESERVE_M = 0.25  # around a Mitake character's centre: no cube there
 
 
 @dataclass
@@ -54,23 +55,27 @@ class Member:
 
 
 class Quadrupeds:
-    def __init__(self, client: int, config: TerrainConfig) -> None:
+    def __init__(self, client: int, grid: TerrainGrid) -> None:
         self.client = client
-        self.grid = TerrainGrid(config)
-        self.terrain_body = TerrainBody(client, self.grid)
+        self.grid = grid
         self._fields: dict[PlanCosts, CostField] = {}
         self.members: dict[str, Member] = {}
 
-    def add(self, spec: QuadrupedSpec, position: tuple[float, float], heading: float, t: float,
-            goal: tuple[float, float] | None = None, waypoints: Sequence[tuple[float, float]] | None = None,
-            taken: Collection[str] = ()) -> str:
-        """Stand a quadruped at stage ``position`` facing ``heading``; returns its unique name."""
-        if len(position) != 2 or not all(math.isfinite(v) for v in (*position, heading)):
-            raise ValueError(f"position: expected finite (x, y) and heading, got {position!r}, {heading!r}")
-        name, k = spec.name, 1
-        while name in self.members or name in taken:
-            k += 1
-            name = f"{spec.name}-{k}"
+    def __contains__(self, name: object) -> bool:
+        return name in self.members
+
+    def __len__(self) -> int:
+        return len(self.members)
+
+    @property
+    def bodies(self) -> Mapping[int, str]:
+        return {}  # people's contact forces on them are not reported (they push them by touch)
+
+    def add(self, name: str, spec: Any, position: tuple[float, float], heading: float, t: float,
+            **options: Any) -> None:
+        """Options: ``goal`` (stage x, y) or ``waypoints`` (stage x, y; replaces the spec's loop)."""
+        assert isinstance(spec, QuadrupedSpec)
+        goal, waypoints = options.get("goal"), options.get("waypoints")
         costs = PlanCosts(spec.near_cost, spec.climb_cost, spec.climb_threshold)
         if costs not in self._fields:
             self._fields[costs] = CostField(self.grid, costs)
@@ -81,7 +86,43 @@ class Quadrupeds:
         self.members[name] = member
         member.pose = loco.update(t, 0.0)
         member.body.apply(member.pose)
-        return name
+
+    def footprints(self) -> Iterable[Footprint]:
+        return ()  # each reserves its own cells as it walks
+
+    def start_step(self) -> None:
+        pass
+
+    def reach(self, position: tuple[float, float, float]) -> float | None:
+        return None
+
+    def impulse(self, impulse: Impulse, t: float) -> None:
+        raise ValueError("quadrupeds take no pad impulses")
+
+    def strike(self, name: str, force: tuple[float, float, float], duration: float,
+               at: tuple[float, float, float], t: float) -> None:
+        raise ValueError(f"{name}: a quadruped is shoved (Quadrupeds.shove), not struck")
+
+    def substeps(self) -> tuple[int, bool]:
+        return 1, False
+
+    def before_substep(self, dt: float, recovering: bool) -> None:
+        pass
+
+    def after_substep(self, t: float, dt: float, forces: Mapping[tuple[str, int], float]) -> None:
+        pass
+
+    def after_tick(self, tick: Tick) -> None:
+        pass
+
+    def notice(self, tick: Tick, ended: Sequence[ContactEvent]) -> None:
+        pass
+
+    def push_threshold(self, name: str) -> float:
+        return math.inf
+
+    def counts(self) -> Mapping[str, int]:
+        return {}
 
     def set_goal(self, name: str, goal: tuple[float, float] | None) -> None:
         self.members[name].goal = goal
@@ -98,12 +139,9 @@ class Quadrupeds:
             m.loco.shove((dv[0], dv[1]))
 
     # ------------------------------------------------------------------ one control tick
-    def tick(self, t: float, dt: float, touches: Sequence[SafeContactor], others: Array, other_names: Sequence[str]) -> None:
-        """Before the physics substeps of a tick at time ``t``: ``touches`` are the people's contactors,
-        ``others`` (n, 2) the Mitake characters' positions (named ``other_names``; their cells are kept free)."""
-        grid = self.grid
-        for name, xy in zip(other_names, others, strict=True):
-            grid.reserve(name, grid.cells_within(float(xy[0]), float(xy[1]), _RESERVE_M))
+    def before_tick(self, tick: Tick) -> None:
+        """Before the physics substeps: walk, get up, or lie (the other characters' cells are reserved)."""
+        t, dt, touches = tick.t, tick.dt, tick.contactors
         people = _people(touches)
         for name, m in self.members.items():
             if m.body.mode is BodyMode.KINEMATIC:
@@ -122,7 +160,7 @@ class Quadrupeds:
                 m.loco.set_goal(None, t)
                 m.slip.reset()
 
-    def _walk(self, name: str, m: Member, t: float, dt: float, touches: Sequence[SafeContactor],
+    def _walk(self, name: str, m: Member, t: float, dt: float, touches: Sequence[Contactor],
               people: dict[int, Array]) -> None:
         loco, spec = m.loco, m.spec
         self.grid.reserve(name, self.grid.cells_within(float(loco.xy[0]), float(loco.xy[1]),
@@ -210,7 +248,7 @@ class Quadrupeds:
         return max((m.penetration_max for m in self.members.values()), default=0.0)
 
 
-def _people(touches: Sequence[SafeContactor]) -> dict[int, Array]:
+def _people(touches: Sequence[Contactor]) -> dict[int, Array]:
     acc: dict[int, list[tuple[float, float]]] = {}
     for c in touches:
         acc.setdefault(c.person, []).append((c.position[0], c.position[1]))

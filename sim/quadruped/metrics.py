@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.quadruped.grid import TerrainGrid
+from sim.terrain import TerrainGrid
 
 Array = NDArray[np.float64]
 

@@ -27,7 +27,7 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.quadruped.grid import Cell, CellChange, TerrainGrid
+from sim.terrain import Cell, CellChange, TerrainGrid
 
 _SQRT2 = math.sqrt(2.0)
 # 8 moves: (dx, dy, length); the first four are straight

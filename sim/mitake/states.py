@@ -10,7 +10,7 @@
                                       └──▶ FALL
 
 "load" is ``Crowd.balance_load``: whether the *bounded* controller can still bring the body back
-(capture-point criterion, ``sim.balance``), not a fixed angle. Lying face up or face down is decided
+(capture-point criterion, ``sim.mitake.balance``), not a fixed angle. Lying face up or face down is decided
 when the body comes to rest (the body's face axis up or down).
 """
 
@@ -22,9 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.ai import on_stood_up
-from sim.body import set_friction
-from sim.crowd import BRAKE, FALL, LIE, STAGGER, STAND_UP, WALK, Crowd
+from sim.mitake.ai import on_stood_up
+from sim.mitake.body import set_friction
+from sim.mitake.crowd import BRAKE, FALL, LIE, STAGGER, STAND_UP, WALK, Crowd
 
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.ai import BEHAVIOUR_STAND_UP, BEHAVIOUR_WALK
 from sim.config import INTENTS, CharacterSpec
-from sim.crowd import STAND_UP, STATES, Crowd
+from sim.mitake.ai import BEHAVIOUR_STAND_UP, BEHAVIOUR_WALK
+from sim.mitake.crowd import STAND_UP, STATES, Crowd
 from sim.snapshot import CharacterSnapshot, CharacterState
 
 
@@ -70,5 +70,5 @@ def snapshots(crowd: Crowd) -> tuple[CharacterSnapshot, ...]:
         [INTENTS[i] for i in crowd.intent.tolist()],
         [None if v < 0 else bool(v) for v in crowd.face_up.tolist()],
         crowd.contact_force.tolist(), [s.height for s in crowd.specs], [s.name for s in crowd.specs],
-        np.minimum(crowd.load, 10.0).tolist(),
+        np.minimum(crowd.load, 10.0).tolist(), [() for _ in range(n)], [s.com_height for s in crowd.specs],
     ))

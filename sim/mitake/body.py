@@ -1,14 +1,12 @@
 """The Mitake character body in pybullet: one rigid convex body, its shape, and batched readouts.
 
-Bodies are pybullet *maximal-coordinate* rigid bodies: measured here with 1000 bodies standing on a
-floor, they step 1.2–3× faster than the same shapes as links-free multibodies. Two traps of that
-path, both measured and both avoided here: ``changeDynamics(localInertiaDiagonal=…)`` without
-``mass=`` zeroes a rigid body's mass (NaN on the next step, which then spreads through the shared
-solver to its neighbours), and ``applyExternalTorque`` uses the shape's own inertia, not the one
-set. The controller therefore never applies torques: it adds its impulse to the body's velocities
-(``write_velocities``, one call per body per control tick; ``sim.control``). Contactors stay
-zero-mass multibodies (``sim.contactors``): the solver uses their velocity in contacts with these
-bodies, measured.
+Bodies are pybullet *maximal-coordinate* rigid bodies (faster than multibodies: docs/notes/mitake-body.md).
+Two traps of that path, avoided here: ``changeDynamics(localInertiaDiagonal=…)`` without ``mass=`` zeroes a
+rigid body's mass (NaN on the next step, which then spreads through the shared solver to its neighbours),
+and ``applyExternalTorque`` uses the shape's own inertia, not the one set. The controller therefore never
+applies torques: it adds its impulse to the body's velocities (``write_velocities``, one call per body per
+control tick; ``sim.mitake.control``). Contactors stay zero-mass multibodies (``sim.contactors``): the
+solver uses their velocity in contacts with these bodies.
 
 Sleeping is disabled: a body that pybullet deactivated would ignore the next velocity write.
 """
@@ -23,18 +21,12 @@ import numpy as np
 import pybullet as p
 from numpy.typing import NDArray
 
+from interaction.types import Vec3
 from sim.config import CharacterSpec
-from sim.frames import Quat, Vec3
+from sim.frames import Quat
+from sim.physics import GROUP_CHARACTER, MASK_CHARACTER
 
 Array = NDArray[np.float64]
-
-# collision groups: bit masks (group, mask); a pair collides when each one's group is in the other's mask
-GROUP_FLOOR = 1
-GROUP_CHARACTER = 2
-GROUP_CONTACTOR = 4
-MASK_FLOOR = GROUP_CHARACTER
-MASK_CHARACTER = GROUP_FLOOR | GROUP_CHARACTER | GROUP_CONTACTOR
-MASK_CONTACTOR = GROUP_CHARACTER
 
 _AROUND = 16  # vertices per horizontal ring of the hull
 _RINGS_BELOW = 9

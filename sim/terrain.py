@@ -27,7 +27,7 @@ import numpy as np
 import pybullet as p
 from numpy.typing import NDArray
 
-from sim.body import GROUP_FLOOR, MASK_FLOOR
+from sim.physics import GROUP_FLOOR, MASK_FLOOR
 
 Cell = tuple[int, int]
 

@@ -11,11 +11,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.ai import Stage
-from sim.body import reset_body, set_friction, write_velocities
 from sim.config import WorldConfig
-from sim.crowd import WALK, Crowd
 from sim.frames import yaw_quaternion
+from sim.mitake.ai import Stage
+from sim.mitake.body import reset_body, set_friction, write_velocities
+from sim.mitake.crowd import WALK, Crowd
 
 IntArray = NDArray[np.int64]
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.crowd import APPROACH, FLEE, FOLLOW, IDLE, NO_INTENT, WANDER, Crowd
+from sim.mitake.crowd import APPROACH, FLEE, FOLLOW, IDLE, NO_INTENT, WANDER, Crowd
 from sim.snapshot import CharacterState
 
 INTENT_CODES = (IDLE, WANDER, APPROACH, FLEE, FOLLOW)

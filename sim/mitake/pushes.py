@@ -13,11 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.crowd import Crowd
-from sim.frames import Vec3
-from sim.snapshot import ContactEvent
-
-PAD_PERSON = -1  # ContactEvent.person for pads and strikes (they carry no person id)
+from interaction.types import Vec3
+from sim.mitake.crowd import Crowd
+from sim.snapshot import PAD_PERSON, ContactEvent
 
 
 @dataclass(slots=True)

@@ -13,35 +13,6 @@ COM, with x the horizontal COM position:
 Linearised about upright (θ ≈ 0, f_N ≈ M g):
 
     I θ̈ = M g l θ − l f_F + τ                    (eq. 5; the paper's + M l r̈ is our − l f_F = − M l ẍ)
-
-State x = [θ, θ̇, v − v_goal] (v the horizontal COM velocity), input u = [f_F, τ]:
-
-    A = [[0, 1, 0], [M g l / I, 0, 0], [0, 0, 0]],   B = [[0, 0], [−l / I, 1 / I], [1 / M, 0]]
-
-Every constant velocity with θ = 0 is an equilibrium with u = 0, so tracking the AI's goal velocity is
-regulation of this error state. (A, B) is controllable (the pendulum through τ, the velocity through f_F).
-
-Gains: the controller runs once per control tick and acts through one *impulse* at the start of the
-tick (``sim.control``: the tick's force and torque times control_dt, added to the body's velocities
-with one pybullet call — pybullet clears external forces after every ``stepSimulation``, and its
-``applyExternalTorque`` ignores the inertia of maximal-coordinate bodies). The model is discretised
-exactly for that input: x⁺ = e^{A dt} (x + B dt u) (``impulse_discretise``), and a discrete LQR is
-solved by iterating the Riccati recursion to its fixed point: u = −K x. Weights by Bryson's rule:
-Q = diag(1/θs², 1/θ̇s², 1/vs²) from the spec's ``lqr_*_scale``, R = diag(1/F², 1/τ²) with F, τ the
-input bounds — so the design asks for about as much input as the bounds allow.
-
-Bounds are hard and applied after the feedback: |τ| ≤ tau_max per plane, and the horizontal friction
-vector of both planes |f_F| ≤ min(μ f_N, leg_force_max). A strong push therefore wins.
-
-Recoverability (``balance_load``): with the bounds, the largest torque that can right the body is
-T = τ_max + l·F_max (centre of pressure at the edge plus the legs' full friction force, whose moment
-about the COM is l·f_F). For θ̈ = ω²θ + u/I (ω² = M g l / I), |u| ≤ T, the divergent component of
-motion ξ = θ + θ̇/ω obeys ξ̇ = ω (ξ + u/(M g l)), so the body can be brought back iff
-|ξ| < T/(M g l) (the capture-point criterion). With the input given as one impulse per tick of dt,
-ξ jumps by u ω dt/(M g l) and then grows freely by e^{ω dt}, so the bound of this controller is
-ξ_max = T/(M g l) · ω dt / (1 − e^{−ω dt}) (1.09× the continuous one at 30 Hz, 1.05× at 60 Hz).
-``balance_load`` returns |ξ|/ξ_max per plane and their root-sum-square (the friction budget is
-shared): 0 upright and still, ≥ 1 beyond rescue.
 """
 
 from __future__ import annotations
@@ -167,7 +138,37 @@ def design_plane(spec: CharacterSpec, tau_max: float, mu: float, gravity: float,
 
 @dataclass(frozen=True, slots=True)
 class BalanceDesign:
-    """Both planes' gains and the heading PD of one character kind on one floor."""
+    """Both planes' gains and the heading PD of one character kind on one floor.
+
+    State x = [θ, θ̇, v − v_goal] (v the horizontal COM velocity), input u = [f_F, τ]:
+
+        A = [[0, 1, 0], [M g l / I, 0, 0], [0, 0, 0]],   B = [[0, 0], [−l / I, 1 / I], [1 / M, 0]]
+
+    Every constant velocity with θ = 0 is an equilibrium with u = 0, so tracking the AI's goal velocity is
+    regulation of this error state. (A, B) is controllable (the pendulum through τ, the velocity through f_F).
+
+    Gains: the controller runs once per control tick and acts through one *impulse* at the start of the
+    tick (``sim.mitake.control``: the tick's force and torque times control_dt, added to the body's velocities
+    with one pybullet call — pybullet clears external forces after every ``stepSimulation``, and its
+    ``applyExternalTorque`` ignores the inertia of maximal-coordinate bodies). The model is discretised
+    exactly for that input: x⁺ = e^{A dt} (x + B dt u) (``impulse_discretise``), and a discrete LQR is
+    solved by iterating the Riccati recursion to its fixed point: u = −K x. Weights by Bryson's rule:
+    Q = diag(1/θs², 1/θ̇s², 1/vs²) from the spec's ``lqr_*_scale``, R = diag(1/F², 1/τ²) with F, τ the
+    input bounds — so the design asks for about as much input as the bounds allow.
+
+    Bounds are hard and applied after the feedback: |τ| ≤ tau_max per plane, and the horizontal friction
+    vector of both planes |f_F| ≤ min(μ f_N, leg_force_max). A strong push therefore wins.
+
+    Recoverability (``balance_load``): with the bounds, the largest torque that can right the body is
+    T = τ_max + l·F_max (centre of pressure at the edge plus the legs' full friction force, whose moment
+    about the COM is l·f_F). For θ̈ = ω²θ + u/I (ω² = M g l / I), |u| ≤ T, the divergent component of
+    motion ξ = θ + θ̇/ω obeys ξ̇ = ω (ξ + u/(M g l)), so the body can be brought back iff
+    |ξ| < T/(M g l) (the capture-point criterion). With the input given as one impulse per tick of dt,
+    ξ jumps by u ω dt/(M g l) and then grows freely by e^{ω dt}, so the bound of this controller is
+    ξ_max = T/(M g l) · ω dt / (1 − e^{−ω dt}) (1.09× the continuous one at 30 Hz, 1.05× at 60 Hz).
+    ``balance_load`` returns |ξ|/ξ_max per plane and their root-sum-square (the friction budget is
+    shared): 0 upright and still, ≥ 1 beyond rescue.
+    """
 
     front: PlaneGains  # front-back plane: θx, forward velocity, pitch torque
     side: PlaneGains  # sideways plane: θz, rightward velocity, roll torque

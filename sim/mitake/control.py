@@ -1,6 +1,6 @@
 """The control laws the state machine selects (Mitake et al. 2009 §4.2, Figure 3), for all characters at once.
 
-- WALK / STAGGER — the bounded LQR of ``sim.balance`` in both vertical planes toward the AI's goal
+- WALK / STAGGER — the bounded LQR of ``sim.mitake.balance`` in both vertical planes toward the AI's goal
   velocity. The legs' friction force f_F acts at the foot point (the body's bottom, ``com_height``
   below the centre of mass along its axis), the centre-of-pressure torques τ about the centre of mass.
   Heading: a bounded PD toward the AI's heading while walking; while staggering, and for ``pivot_s``
@@ -12,7 +12,7 @@
   physics keeps running, so a push during it still counts.
 - FALL — nothing: the body falls.
 
-The tick's force F and torque T act as one impulse at the start of the tick (``sim.balance`` designs
+The tick's force F and torque T act as one impulse at the start of the tick (``sim.mitake.balance`` designs
 the gains for exactly that): Δv = F dt / M and Δω = (T + r_foot × F) dt / I (isotropic inertia). Every
 bound is applied here, before the impulse, and recorded so it can be checked.
 """
@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.crowd import BRAKE, FALL, LIE, STAGGER, STAND_UP, Crowd
 from sim.frames import clamp, wrap_angles
-from sim.states import stand_up_reference
+from sim.mitake.crowd import BRAKE, FALL, LIE, STAGGER, STAND_UP, Crowd
+from sim.mitake.states import stand_up_reference
 
 Array = NDArray[np.float64]
 

@@ -1,7 +1,7 @@
 """Every character of a world as columns of numpy arrays (one row per character).
 
 The controller, state machine and AI run once per control tick for all characters together
-(``sim.control``, ``sim.states``, ``sim.ai``): at a thousand characters a Python loop over objects
+(``sim.mitake.control``, ``sim.mitake.states``, ``sim.mitake.ai``): at a thousand characters a Python loop over objects
 costs more than the physics. ``Columns`` holds the per-character constants (spec fields and the
 balance design), ``Crowd`` the state that changes. Rows are added, never removed.
 """
@@ -14,9 +14,9 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.balance import BalanceDesign
 from sim.config import INTENTS, CharacterSpec
 from sim.frames import Frames, frames, tilt_rates
+from sim.mitake.balance import BalanceDesign
 from sim.snapshot import CharacterState
 
 Array = NDArray[np.float64]
@@ -96,10 +96,10 @@ class Columns:
         self.inv_tau_max_side = 1.0 / self.tau_max_side if self.tau_max_side.size else self.tau_max_side
         self.inv_yaw_torque_max = 1.0 / self.yaw_torque_max if self.yaw_torque_max.size else self.yaw_torque_max
         self.pivot_gain = self.inertia * self.pivot_damping
-        # speed error that alone asks for SPEED_ERROR_SHARE of the torque bound (``sim.control``)
+        # speed error that alone asks for SPEED_ERROR_SHARE of the torque bound (``sim.mitake.control``)
         self.speed_error_front = SPEED_ERROR_SHARE * self.tau_max / np.maximum(np.abs(self.kf_torque[2]), 1e-9)
         self.speed_error_side = SPEED_ERROR_SHARE * self.tau_max_side / np.maximum(np.abs(self.ks_torque[2]), 1e-9)
-        self.walkable: dict[object, tuple[Array, Array, Array, Array]] = {}  # by stage (sim.ai.walkable)
+        self.walkable: dict[object, tuple[Array, Array, Array, Array]] = {}  # by stage (sim.mitake.ai.walkable)
         self.top_speed = np.maximum(self.walk_speed, self.flee_speed)
         self.min_stagger_ratio = float(self.stagger_ratio.min()) if self.stagger_ratio.size else 0.0
 
@@ -286,7 +286,7 @@ class Crowd:
         self.rate_x, self.rate_z = tilt_rates(self.frames, ang)
 
     def balance_load(self) -> Array:
-        """Both planes' |ξ|/ξ_max, root-sum-square (``sim.balance``); ∞ when tilted past horizontal."""
+        """Both planes' |ξ|/ξ_max, root-sum-square (``sim.mitake.balance``); ∞ when tilted past horizontal."""
         f, c = self.frames, self.cols
         front = np.abs(f.tilt_x + self.rate_x / c.omega) / c.xi_front
         side = np.abs(f.tilt_z + self.rate_z / c.omega) / c.xi_side
