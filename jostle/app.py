@@ -112,6 +112,7 @@ class App:
         self.session_recorder: SessionRecorder | None = None
         self.sensors: dict[str, Sensor] = {}  # this run's sensors (filled by run())
         self.terrain: TerrainWiring | None = None  # [terrain]: the cubes people build (filled by run())
+        self.progress: Progress | None = None  # the progress line of the last run (its ``n``: simulated seconds)
 
     def run(self) -> RunSummary:
         from render.gl.renderer import Renderer
@@ -210,8 +211,8 @@ class App:
         """One render frame at a time: read → observe → merge → step → draw, until a stop condition."""
         dt = 1.0 / self.config.render.fps
         frames = _Frames(SensorFusion(), t0=self.clock.now())
-        bar = Progress(expected_duration(self.config, self.options), "jostle run", "sim s",
-                       enabled=self.options.progress)
+        bar = self.progress = Progress(expected_duration(self.config, self.options), "jostle run", "sim s",
+                                       enabled=self.options.progress)
         try:
             while True:
                 frames.t = max(frames.t + dt, self.clock.now())  # late (live, slow display): draw now, never catch up
@@ -225,7 +226,7 @@ class App:
                 image = self._draw(renderer, snap, observation, keyframes, now, video)
                 if self.on_frame is not None:
                     self.on_frame(snap, observation, image)
-                bar.update(dt)
+                bar.update_to(snap.t)  # the world's time, as the summary counts it (a late frame steps more than dt)
                 if self._should_stop(renderer, sensors, frames, now):
                     break
         except KeyboardInterrupt:
