@@ -1,8 +1,8 @@
 """The main loop: sensors → observers → world → renderer → video, on one injected clock.
 
 Replays and headless runs use simulated time (a ``SimClock`` that the loop moves one render frame at
-a time), so a recording plus a seed always gives the same trace, as fast as the CPU allows. Live runs
-use the wall clock and pace the loop to the render rate.
+a time), so a recording or a video file plus a seed always gives the same trace, as fast as the CPU
+allows. Live runs use the wall clock and pace the loop to the render rate.
 """
 
 from __future__ import annotations
@@ -83,9 +83,16 @@ def expected_duration(config: JostleConfig, options: RunOptions) -> float | None
 
     longest = 0.0
     for entry in config.sensors:
-        if not isinstance(entry.config, ReplayConfig):
+        if isinstance(entry.config, ReplayConfig):
+            longest = max(longest, describe_recording(entry.config.path).duration)
+        elif (video := _video_file(entry.config)) is not None:
+            from sensors.webcam.driver import video_duration
+
+            if (seconds := video_duration(video)) is None:
+                return None
+            longest = max(longest, seconds)
+        else:
             return None  # a live sensor: runs until stopped
-        longest = max(longest, describe_recording(entry.config.path).duration)
     return longest + config.run.tail_s
 
 
@@ -96,7 +103,7 @@ class App:
         self.config = config
         self.options = options
         self.seed = config.run.seed if options.seed is None else options.seed
-        live = any(not _is_replay(e.config) for e in config.sensors)
+        live = any(not _plays_a_file(e.config) for e in config.sensors)  # recordings and video files: sim time
         if clock is None:
             clock = WallClock() if (live or options.speed == "realtime") else SimClock()
         self.clock = clock
@@ -132,7 +139,7 @@ class App:
             observers[ob.name] = (ob.sensor, guard)
         if cfg.record.enabled:
             self.session_recorder = SessionRecorder(cfg.record, metadata={"config": str(cfg.path)})
-        recordings = [str(e.config.path) for e in cfg.sensors if _is_replay(e.config)]
+        recordings = [str(_played_file(e.config)) for e in cfg.sensors if _plays_a_file(e.config)]
         self.summary.recording = ", ".join(recordings) if recordings else None
 
         keyframes = self._keyframe_sets(KeyframeSet)
@@ -355,7 +362,19 @@ def _observer_builder(ob: ObserverEntry) -> Callable[[], Observer]:
     return lambda: observer_types()[ob.type].build(ob.config, ob.calibration, ob.sensor)
 
 
-def _is_replay(config: object) -> bool:
+def _video_file(config: object) -> str | None:
+    """The video file a webcam sensor plays (on its own timeline), None for a camera or stream."""
+    from sensors.webcam.config import WebcamConfig
+
+    return config.source if isinstance(config, WebcamConfig) and config.kind == "file" else None
+
+
+def _played_file(config: object) -> str | Path | None:
+    """The file a sensor plays on its own timeline (a recording, a video file), None for a live one."""
     from sensors.recording.replay import ReplayConfig
 
-    return isinstance(config, ReplayConfig)
+    return config.path if isinstance(config, ReplayConfig) else _video_file(config)
+
+
+def _plays_a_file(config: object) -> bool:
+    return _played_file(config) is not None
