@@ -20,6 +20,7 @@ import numpy as np
 from interaction.fusion import SensorFusion
 from interaction.observers import Observer, observer_types
 from interaction.types import BodyObservation, Impulse
+from jostle.calibration_check import calibration_for
 from jostle.config import JostleConfig, ObserverEntry
 from jostle.observer_guard import ObserverGuard
 from jostle.operations import Operations
@@ -133,10 +134,6 @@ class App:
         observers: dict[str, tuple[str, Observer]] = {}  # observer name -> (sensor name, observer)
         for entry in cfg.sensors:
             sensors[entry.name] = SENSOR_TYPES[entry.type].load(entry.config, entry.name, self.clock)
-        for ob in cfg.observers:
-            guard = ObserverGuard(ob.name, _observer_builder(ob), self.clock)  # a crash: logged, rebuilt later
-            self.observer_guards[ob.name] = guard
-            observers[ob.name] = (ob.sensor, guard)
         if cfg.record.enabled:
             self.session_recorder = SessionRecorder(cfg.record, metadata={"config": str(cfg.path)})
         recordings = [str(_played_file(e.config)) for e in cfg.sensors if _plays_a_file(e.config)]
@@ -148,6 +145,13 @@ class App:
         video = None
         out_dir = opts.out_dir
         try:
+            for s in sensors.values():  # open first: a calibration is checked against the size they give
+                s.open()
+            for ob in cfg.observers:  # a crash: logged, the observer rebuilt later (jostle.observer_guard)
+                calibration = calibration_for(ob, sensors[ob.sensor])
+                guard = ObserverGuard(ob.name, _observer_builder(ob, calibration), self.clock)
+                self.observer_guards[ob.name] = guard
+                observers[ob.name] = (ob.sensor, guard)
             self.summary.characters = place_characters(cfg, world, self.seed)
             self.terrain = attach_terrain(cfg, world)  # the layout built; None without [terrain]
             self.summary.characters += len(cfg.quadrupeds)  # (they need [terrain]: stood on it just above)
@@ -169,8 +173,6 @@ class App:
                     video_path = out_dir / f"{cfg.path.stem}.mp4"
                     video = VideoOut(video_path, cfg.render.fps, (cfg.render.width, cfg.render.height))
                     self.summary.video = str(video_path)
-            for s in sensors.values():
-                s.open()
             self.operations.start()
             self._loop(sensors, observers, world, renderer, keyframes, video)
         finally:
@@ -186,7 +188,7 @@ class App:
             world.close()
             self.summary.wall_seconds = round(time.perf_counter() - wall0, 3)
             self.summary.trace_sha256 = self.tally.digest
-            if out_dir is not None:
+            if out_dir is not None and out_dir.is_dir():  # (not made when the run stopped before it began)
                 self.summary.write(out_dir / "summary.json")
         return self.summary
 
@@ -357,9 +359,10 @@ def _forget_sensor(name: str, observers: dict[str, tuple[str, Observer]], latest
             latest.pop(ob_name, None)
 
 
-def _observer_builder(ob: ObserverEntry) -> Callable[[], Observer]:
-    """Builds the observer of ``ob`` afresh from its config (at start, and after a crash)."""
-    return lambda: observer_types()[ob.type].build(ob.config, ob.calibration, ob.sensor)
+def _observer_builder(ob: ObserverEntry, calibration: object) -> Callable[[], Observer]:
+    """Builds the observer of ``ob`` afresh from its config (at start, and after a crash), with
+    ``calibration`` (its file, or one loaded and fitted to the images: jostle.calibration_check)."""
+    return lambda: observer_types()[ob.type].build(ob.config, calibration, ob.sensor)
 
 
 def _video_file(config: object) -> str | None:
