@@ -22,6 +22,7 @@ from interaction.observers import Observer, observer_types
 from interaction.types import BodyObservation, Impulse
 from jostle.calibration_check import calibration_for
 from jostle.config import JostleConfig, ObserverEntry
+from jostle.errors import RunFailed
 from jostle.observer_guard import ObserverGuard
 from jostle.operations import Operations
 from jostle.progress import Progress
@@ -186,10 +187,13 @@ class App:
             if renderer is not None:
                 renderer.close()
             world.close()
+            self.summary.failed = "; ".join(filter(None, (g.never_observed() for g in self.observer_guards.values())))
             self.summary.wall_seconds = round(time.perf_counter() - wall0, 3)
             self.summary.trace_sha256 = self.tally.digest
             if out_dir is not None and out_dir.is_dir():  # (not made when the run stopped before it began)
                 self.summary.write(out_dir / "summary.json")
+        if self.summary.failed:
+            raise RunFailed(f"{self.summary.failed}; run with --debug for the traceback")
         return self.summary
 
     def _keyframe_sets(self, loader: type[KeyframeSet]) -> dict[str, KeyframeSet]:

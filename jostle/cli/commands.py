@@ -99,7 +99,7 @@ def _command(argv: list[str] | None) -> int:
     if not args.debug:
         one_line_records(terse)  # a crash logged by an observer: its line; the traceback with --debug
     adopt_journal()  # under systemd: one `<priority>key=value` line per record, for the journal
-    from jostle.errors import user_facing
+    from jostle.errors import RunFailed, user_facing
     from jostle.quiet import import_pybullet_quietly
 
     if args.command in ("run", "replay", "bench", "synth", "keyframes"):
@@ -115,6 +115,9 @@ def _command(argv: list[str] | None) -> int:
         return 130
     except BrokenPipeError:  # the reader closed the pipe: main ends quietly
         raise
+    except RunFailed as e:  # the run went to its end without doing its job (the summary says why too)
+        print(f"{prefix(logging.ERROR)}jostle: error: {e}", file=sys.stderr)  # (--debug: the crash logged it)
+        return 1
     except Exception as e:  # one line for what the user can fix; a traceback only for real bugs
         message = user_facing(e)
         if message is not None:
