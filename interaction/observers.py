@@ -26,18 +26,21 @@ class Observer(Protocol):
 @dataclass(frozen=True)
 class ObserverType:
     config: type  # frozen config dataclass built from the table's other keys
-    build: Callable[[Any, Path | None, str], Observer]  # (config, calibration file or None, sensor) → observer
+    # (config, calibration: a file, one already loaded (checked against the image size), or None; sensor) → observer
+    build: Callable[[Any, Any, str], Observer]
     needs_calibration: bool
     description: str
 
 
-def _build_webcam(config: Any, calibration: Path | None, sensor: str) -> Observer:
+def _build_webcam(config: Any, calibration: object, sensor: str) -> Observer:
     from interaction.webcam.calibration import Calibration
     from interaction.webcam.observer import WebcamObserver
 
-    if not isinstance(config, WebcamObserverConfig) or calibration is None:
-        raise TypeError("webcam observer: expected a WebcamObserverConfig and a calibration file")
-    return WebcamObserver(config, Calibration.load(calibration))
+    if isinstance(calibration, Path):
+        calibration = Calibration.load(calibration)
+    if not isinstance(config, WebcamObserverConfig) or not isinstance(calibration, Calibration):
+        raise TypeError("webcam observer: expected a WebcamObserverConfig and a calibration (file)")
+    return WebcamObserver(config, calibration)
 
 
 def _build_pads(config: Any, calibration: Path | None, sensor: str) -> Observer:

@@ -1,8 +1,8 @@
 """The main loop: sensors → observers → world → renderer → video, on one injected clock.
 
 Replays and headless runs use simulated time (a ``SimClock`` that the loop moves one render frame at
-a time), so a recording plus a seed always gives the same trace, as fast as the CPU allows. Live runs
-use the wall clock and pace the loop to the render rate.
+a time), so a recording or a video file plus a seed always gives the same trace, as fast as the CPU
+allows. Live runs use the wall clock and pace the loop to the render rate.
 """
 
 from __future__ import annotations
@@ -20,7 +20,9 @@ import numpy as np
 from interaction.fusion import SensorFusion
 from interaction.observers import Observer, observer_types
 from interaction.types import BodyObservation, Impulse
+from jostle.calibration_check import calibration_for
 from jostle.config import JostleConfig, ObserverEntry
+from jostle.errors import RunFailed
 from jostle.observer_guard import ObserverGuard
 from jostle.operations import Operations
 from jostle.progress import Progress
@@ -83,9 +85,16 @@ def expected_duration(config: JostleConfig, options: RunOptions) -> float | None
 
     longest = 0.0
     for entry in config.sensors:
-        if not isinstance(entry.config, ReplayConfig):
+        if isinstance(entry.config, ReplayConfig):
+            longest = max(longest, describe_recording(entry.config.path).duration)
+        elif (video := _video_file(entry.config)) is not None:
+            from sensors.webcam.driver import video_duration
+
+            if (seconds := video_duration(video)) is None:
+                return None
+            longest = max(longest, seconds)
+        else:
             return None  # a live sensor: runs until stopped
-        longest = max(longest, describe_recording(entry.config.path).duration)
     return longest + config.run.tail_s
 
 
@@ -96,7 +105,7 @@ class App:
         self.config = config
         self.options = options
         self.seed = config.run.seed if options.seed is None else options.seed
-        live = any(not _is_replay(e.config) for e in config.sensors)
+        live = any(not _plays_a_file(e.config) for e in config.sensors)  # recordings and video files: sim time
         if clock is None:
             clock = WallClock() if (live or options.speed == "realtime") else SimClock()
         self.clock = clock
@@ -112,6 +121,7 @@ class App:
         self.session_recorder: SessionRecorder | None = None
         self.sensors: dict[str, Sensor] = {}  # this run's sensors (filled by run())
         self.terrain: TerrainWiring | None = None  # [terrain]: the cubes people build (filled by run())
+        self.progress: Progress | None = None  # the progress line of the last run (its ``n``: simulated seconds)
 
     def run(self) -> RunSummary:
         from render.gl.renderer import Renderer
@@ -125,13 +135,9 @@ class App:
         observers: dict[str, tuple[str, Observer]] = {}  # observer name -> (sensor name, observer)
         for entry in cfg.sensors:
             sensors[entry.name] = SENSOR_TYPES[entry.type].load(entry.config, entry.name, self.clock)
-        for ob in cfg.observers:
-            guard = ObserverGuard(ob.name, _observer_builder(ob), self.clock)  # a crash: logged, rebuilt later
-            self.observer_guards[ob.name] = guard
-            observers[ob.name] = (ob.sensor, guard)
         if cfg.record.enabled:
             self.session_recorder = SessionRecorder(cfg.record, metadata={"config": str(cfg.path)})
-        recordings = [str(e.config.path) for e in cfg.sensors if _is_replay(e.config)]
+        recordings = [str(_played_file(e.config)) for e in cfg.sensors if _plays_a_file(e.config)]
         self.summary.recording = ", ".join(recordings) if recordings else None
 
         keyframes = self._keyframe_sets(KeyframeSet)
@@ -140,6 +146,13 @@ class App:
         video = None
         out_dir = opts.out_dir
         try:
+            for s in sensors.values():  # open first: a calibration is checked against the size they give
+                s.open()
+            for ob in cfg.observers:  # a crash: logged, the observer rebuilt later (jostle.observer_guard)
+                calibration = calibration_for(ob, sensors[ob.sensor])
+                guard = ObserverGuard(ob.name, _observer_builder(ob, calibration), self.clock)
+                self.observer_guards[ob.name] = guard
+                observers[ob.name] = (ob.sensor, guard)
             self.summary.characters = place_characters(cfg, world, self.seed)
             self.terrain = attach_terrain(cfg, world)  # the layout built; None without [terrain]
             self.summary.characters += len(cfg.quadrupeds)  # (they need [terrain]: stood on it just above)
@@ -161,8 +174,6 @@ class App:
                     video_path = out_dir / f"{cfg.path.stem}.mp4"
                     video = VideoOut(video_path, cfg.render.fps, (cfg.render.width, cfg.render.height))
                     self.summary.video = str(video_path)
-            for s in sensors.values():
-                s.open()
             self.operations.start()
             self._loop(sensors, observers, world, renderer, keyframes, video)
         finally:
@@ -176,10 +187,13 @@ class App:
             if renderer is not None:
                 renderer.close()
             world.close()
+            self.summary.failed = "; ".join(filter(None, (g.never_observed() for g in self.observer_guards.values())))
             self.summary.wall_seconds = round(time.perf_counter() - wall0, 3)
             self.summary.trace_sha256 = self.tally.digest
-            if out_dir is not None:
+            if out_dir is not None and out_dir.is_dir():  # (not made when the run stopped before it began)
                 self.summary.write(out_dir / "summary.json")
+        if self.summary.failed:
+            raise RunFailed(f"{self.summary.failed}; run with --debug for the traceback")
         return self.summary
 
     def _keyframe_sets(self, loader: type[KeyframeSet]) -> dict[str, KeyframeSet]:
@@ -210,8 +224,8 @@ class App:
         """One render frame at a time: read → observe → merge → step → draw, until a stop condition."""
         dt = 1.0 / self.config.render.fps
         frames = _Frames(SensorFusion(), t0=self.clock.now())
-        bar = Progress(expected_duration(self.config, self.options), "jostle run", "sim s",
-                       enabled=self.options.progress)
+        bar = self.progress = Progress(expected_duration(self.config, self.options), "jostle run", "sim s",
+                                       enabled=self.options.progress)
         try:
             while True:
                 frames.t = max(frames.t + dt, self.clock.now())  # late (live, slow display): draw now, never catch up
@@ -225,7 +239,7 @@ class App:
                 image = self._draw(renderer, snap, observation, keyframes, now, video)
                 if self.on_frame is not None:
                     self.on_frame(snap, observation, image)
-                bar.update(dt)
+                bar.update_to(snap.t)  # the world's time, as the summary counts it (a late frame steps more than dt)
                 if self._should_stop(renderer, sensors, frames, now):
                     break
         except KeyboardInterrupt:
@@ -349,12 +363,25 @@ def _forget_sensor(name: str, observers: dict[str, tuple[str, Observer]], latest
             latest.pop(ob_name, None)
 
 
-def _observer_builder(ob: ObserverEntry) -> Callable[[], Observer]:
-    """Builds the observer of ``ob`` afresh from its config (at start, and after a crash)."""
-    return lambda: observer_types()[ob.type].build(ob.config, ob.calibration, ob.sensor)
+def _observer_builder(ob: ObserverEntry, calibration: object) -> Callable[[], Observer]:
+    """Builds the observer of ``ob`` afresh from its config (at start, and after a crash), with
+    ``calibration`` (its file, or one loaded and fitted to the images: jostle.calibration_check)."""
+    return lambda: observer_types()[ob.type].build(ob.config, calibration, ob.sensor)
 
 
-def _is_replay(config: object) -> bool:
+def _video_file(config: object) -> str | None:
+    """The video file a webcam sensor plays (on its own timeline), None for a camera or stream."""
+    from sensors.webcam.config import WebcamConfig
+
+    return config.source if isinstance(config, WebcamConfig) and config.kind == "file" else None
+
+
+def _played_file(config: object) -> str | Path | None:
+    """The file a sensor plays on its own timeline (a recording, a video file), None for a live one."""
     from sensors.recording.replay import ReplayConfig
 
-    return isinstance(config, ReplayConfig)
+    return config.path if isinstance(config, ReplayConfig) else _video_file(config)
+
+
+def _plays_a_file(config: object) -> bool:
+    return _played_file(config) is not None

@@ -12,6 +12,11 @@ class UsageError(Exception):
     """A mistake on the command line or in a file it names; printed as one line, exit status 2."""
 
 
+class RunFailed(Exception):
+    """A run that went to its end without doing its job (an observer produced nothing from the frames
+    it was given); printed as one line, exit status 1 (the summary is still written)."""
+
+
 def user_error_types() -> tuple[type[BaseException], ...]:
     """The exception types whose message is the whole story for the user (imported on demand)."""
     from interaction.webcam.calibration import CalibrationError

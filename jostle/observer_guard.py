@@ -1,10 +1,11 @@
 """An observer that cannot take the show down: crashes are caught, the observer is rebuilt later.
 
 :class:`ObserverGuard` stands between the main loop and one observer. When ``observe()`` raises, the
-crash is logged (its traceback the first time that error is seen, one line after that) and counted;
-the observer is dropped, and until it is back every frame gets an empty observation (a crashed
-observer must not leave stale people pushing); after a back-off (``first_backoff_s``, doubling up to
-``max_backoff_s``, reset after ``healthy_after_s`` without a crash) it is rebuilt from its config.
+crash is logged (with its traceback the first time that error is seen, printed by the command only
+with ``--debug``; one line after that) and counted; the observer is dropped, and until it is back
+every frame gets an empty observation (a crashed observer must not leave stale people pushing);
+after a back-off (``first_backoff_s``, doubling up to ``max_backoff_s``, reset after
+``healthy_after_s`` without a crash) it is rebuilt from its config.
 A rebuild that itself raises counts as a failed restart and backs off further.
 
 What comes out of a healthy observer is checked too: a contactor or impulse carrying a NaN or
@@ -12,7 +13,8 @@ infinite number is dropped and counted (``dropped_non_finite``), and pad samples
 newtons are counted on the way in (``non_finite_inputs``). The test is ``interaction.types.finite``,
 the same one the sim applies to whatever reaches ``World.step``. Times are the loop's clock, so on a
 SimClock the restarts are as deterministic as the rest; :meth:`ObserverGuard.health` returns the
-counters as a frozen :class:`ObserverHealth`.
+counters as a frozen :class:`ObserverHealth`, and :meth:`ObserverGuard.never_observed` says when an
+observer was handed frames but returned nothing for any (the run then fails: ``jostle.app``).
 """
 
 from __future__ import annotations
@@ -47,6 +49,8 @@ class ObserverHealth:
     non_finite_inputs: int  # pad samples with NaN or infinite newtons handed to the observer
     last_error: str  # one line: "ValueError: ..." ("" if none yet)
     retry_in_s: float  # seconds until the next rebuild (0 while running)
+    frames: int = 0  # frames its sensor handed it
+    observations: int = 0  # observations its observer returned (a crash or a wait for a rebuild: none)
 
 
 def _signature(e: BaseException) -> tuple[str, str, int]:
@@ -95,6 +99,8 @@ class ObserverGuard:
         self._dropped = 0
         self._non_finite_in = 0
         self._last_error = ""
+        self._frames = 0
+        self._observations = 0
         self.restart_times: list[float] = []  # clock times of the successful rebuilds (the last 64)
 
     # ------------------------------------------------------------------ what the loop reads
@@ -111,12 +117,23 @@ class ObserverGuard:
             restarts=self._restarts, failed_restarts=self._failed_restarts, dropped_non_finite=self._dropped,
             non_finite_inputs=self._non_finite_in, last_error=self._last_error,
             retry_in_s=0.0 if running else max(0.0, self._retry_at - self._clock.now()),
+            frames=self._frames, observations=self._observations,
         )
+
+    def never_observed(self) -> str | None:
+        """One line when its sensor handed it frames and it returned no observation for any (it crashed
+        on every one, or could not be rebuilt), else None: such a run did not do its job."""
+        if not self._frames or self._observations:
+            return None
+        why = f"; last error: {self._last_error}" if self._last_error else ""
+        return (f"observer {self.name!r} produced nothing from the {self._frames} frames of its sensor "
+                f"(crashes: {self._crashes}, failed rebuilds: {self._failed_restarts}{why})")
 
     # ------------------------------------------------------------------ the loop's call
 
     def observe(self, frame: Frame) -> BodyObservation:
         now = self._clock.now()
+        self._frames += 1
         if self._observer is None:
             if now < self._retry_at:
                 return BodyObservation(t=frame.t)
@@ -133,6 +150,7 @@ class ObserverGuard:
         except Exception as e:  # any bug in one observer; the loop and the other observers go on
             self._crashed(e, now, "crashed")
             return BodyObservation(t=frame.t)
+        self._observations += 1
         return self._checked(obs)
 
     def _checked(self, obs: BodyObservation) -> BodyObservation:

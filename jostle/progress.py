@@ -27,6 +27,10 @@ class Progress:
             self._bar = tqdm(total=total, desc=desc, leave=False, bar_format=fmt if total else None,
                              unit=unit, mininterval=0.25)
 
+    def update_to(self, n: float) -> None:
+        """Progress is now ``n`` (in ``unit``): for a count the work itself keeps, e.g. a world's time."""
+        self.update(n - self.n)
+
     def update(self, n: float) -> None:
         self.n += n
         if self._bar is not None:

@@ -31,6 +31,7 @@ class RunSummary:
     seed: int = 0
     trace_sha256: str = ""
     stopped_because: str = ""
+    failed: str = ""  # why the run did not do its job ("" when it did): jostle.errors.RunFailed
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), indent=2, sort_keys=False)

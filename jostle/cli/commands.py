@@ -69,16 +69,37 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Runs one command; its exit status. A reader that closes the pipe early ends it quietly
+    (:mod:`jostle.cli.terminal`: status 141, as for other tools stopped by a closed pipe)."""
+    from jostle.cli.terminal import end_on_closed_pipe, flush_output
+
+    try:
+        try:
+            status = _command(argv)
+        except SystemExit:  # argparse: --help, --version or a usage error, already printed
+            flush_output()
+            raise
+        flush_output()
+        return status
+    except BrokenPipeError:
+        return end_on_closed_pipe()
+
+
+def _command(argv: list[str] | None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
+    terse = "jostle: %(levelname)s: %(message)s"
     logging.basicConfig(
         level=logging.DEBUG if args.debug else logging.INFO,
-        format="jostle: %(levelname)s: %(message)s" if not args.debug else "%(asctime)s %(name)s %(levelname)s %(message)s",
+        format=terse if not args.debug else "%(asctime)s %(name)s %(levelname)s %(message)s",
     )
     from jostle.cli.journal import adopt_journal, prefix
+    from jostle.cli.terminal import one_line_records
 
+    if not args.debug:
+        one_line_records(terse)  # a crash logged by an observer: its line; the traceback with --debug
     adopt_journal()  # under systemd: one `<priority>key=value` line per record, for the journal
-    from jostle.errors import user_facing
+    from jostle.errors import RunFailed, user_facing
     from jostle.quiet import import_pybullet_quietly
 
     if args.command in ("run", "replay", "bench", "synth", "keyframes"):
@@ -92,6 +113,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("jostle: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader closed the pipe: main ends quietly
+        raise
+    except RunFailed as e:  # the run went to its end without doing its job (the summary says why too)
+        print(f"{prefix(logging.ERROR)}jostle: error: {e}", file=sys.stderr)  # (--debug: the crash logged it)
+        return 1
     except Exception as e:  # one line for what the user can fix; a traceback only for real bugs
         message = user_facing(e)
         if message is not None:

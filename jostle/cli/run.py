@@ -33,7 +33,8 @@ def _run_flags(p: argparse.ArgumentParser, default_out: str) -> None:
     p.add_argument("--seed", type=int, default=None, metavar="N",
                    help="seed for every random choice (default: [run] seed of the config)")
     p.add_argument("--speed", choices=("realtime", "max"), default=None,
-                   help="replays: as fast as the CPU allows (max, default headless) or at wall-clock speed")
+                   help="recordings and video files: as fast as the CPU allows (max, default headless) "
+                   "or at wall-clock speed")
     p.add_argument("--duration", type=float, default=None, metavar="S",
                    help="stop after S simulated seconds (default: when the recordings end)")
     p.add_argument("--no-video", action="store_true", help="do not write the MP4 (still renders)")
@@ -46,7 +47,8 @@ def add_run(sub: Sub) -> None:
         help="run an installation config (live sensors or recordings)",
         formatter_class=RAW,
         description="Run the installation described by CONFIG: sensors → people → physics → drawing.\n\n"
-        "With recordings as sensors ([sensors.x] type = \"replay\") the run is on simulated time:\n"
+        "With recordings or video files as sensors ([sensors.x] type = \"replay\", or type = \"webcam\"\n"
+        "with a video file as source) the run is on simulated time:\n"
         "deterministic for a seed, and as fast as the CPU allows when headless.",
         epilog="examples:\n"
         "  jostle run configs/demo.toml --headless --out out/demo\n"

@@ -41,6 +41,19 @@ def _as_bgr(image: np.ndarray) -> np.ndarray:
     return image
 
 
+def video_duration(path: str) -> float | None:
+    """Seconds from the first frame of the video file ``path`` to its last (frame count and fps from the
+    container, so approximate for some files), or None when OpenCV cannot tell."""
+    cap = cv2.VideoCapture(path)
+    try:
+        frames, fps = float(cap.get(cv2.CAP_PROP_FRAME_COUNT)), float(cap.get(cv2.CAP_PROP_FPS))
+    finally:
+        cap.release()
+    if not (math.isfinite(frames) and math.isfinite(fps) and frames >= 1 and fps > 0):
+        return None
+    return (frames - 1) / fps
+
+
 class WebcamSensor(ThreadedDriver[Any]):  # the link is a cv2.VideoCapture (live mode only)
     driver = "webcam"
 
