@@ -338,3 +338,26 @@ def test_a_second_recording_appended_is_said_not_read(tmp_path: Path) -> None:
     assert "not read" in format_info(info) and "another file appended" in format_info(info)
     with pytest.warns(RecordingDamaged, match=rf"{second.stat().st_size} bytes after the end of the recording"):
         assert len(list(iter_frames(both, "cam"))) == 10
+
+
+# ---------------------------------------------------------------- what is not a recording file
+
+
+@pytest.mark.parametrize("kind", ["a folder", "a FIFO", "a character device", "a symlink loop", "missing"])
+def test_jostle_info_refuses_what_is_not_a_regular_file_in_one_line(tmp_path: Path, kind: str,
+                                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    from jostle.cli import main
+
+    path = tmp_path / "take.mcap"
+    if kind == "a folder":
+        path.mkdir()
+    elif kind == "a FIFO":
+        os.mkfifo(path)  # opening it would block: it must be refused by its kind, before any open
+    elif kind == "a character device":
+        path = Path("/dev/zero")
+    elif kind == "a symlink loop":
+        path.symlink_to(path)
+    assert main(["info", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    expected = {"a symlink loop": "symlink loop", "missing": "recording not found"}.get(kind, f"found {kind}")
+    assert err.startswith(f"jostle: error: {path}: ") and expected in err and "\n" not in err

@@ -12,7 +12,9 @@ front with :class:`RecordingCorrupt`.
 from __future__ import annotations
 
 import os
+import stat
 import struct
+import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from io import BytesIO
@@ -24,7 +26,8 @@ from mcap.records import Channel, Footer, Message, Metadata, Schema
 
 from sensors.base import RecordingCorrupt, SensorUnavailable
 from sensors.recording.chunks import RecordedMessage, chunk_length_at, chunk_messages, find_chunk, open_chunk
-from sensors.untrusted import one_line
+from sensors.untrusted import MissingInput, one_line
+from sensors.untrusted.files import kind_of, refuse_os_error
 from sensors.untrusted.limits import DECOMPRESS_CAP
 
 MCAP_MAGIC = b"\x89MCAP0\r\n"
@@ -57,18 +60,24 @@ class RecordingDamage:
 
 
 def check_recording_file(path: Path) -> int:
-    """Raise the user-facing error if ``path`` is missing or not MCAP; return its size in bytes."""
-    if not path.exists():
-        raise SensorUnavailable(f"{path}: recording not found (check the path; relative paths in a "
-                                "config are taken from the config file's folder)")
-    if not path.is_file():
-        raise SensorUnavailable(f"{path}: expected an .mcap recording file, found a directory or device")
+    """Raise the user-facing error if ``path`` is missing, not a regular file (a folder, FIFO or
+    device is refused by name, before opening) or not MCAP; return its size in bytes."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError) as e:
+        refusal = refuse_os_error(path, e)
+        if isinstance(refusal, MissingInput):
+            raise SensorUnavailable(f"{refusal.source}: recording not found (check the path; relative paths in "
+                                    "a config are taken from the config file's folder)") from None
+        raise SensorUnavailable(refusal.message) from None
+    if not stat.S_ISREG(st.st_mode):
+        raise SensorUnavailable(f"{one_line(str(path))}: expected an .mcap recording file, found {kind_of(st.st_mode)}")
     with path.open("rb") as f:
         head = f.read(len(MCAP_MAGIC))
     if head != MCAP_MAGIC:
         why = "the file is empty" if not head else f"it starts with {head!r}, not the MCAP magic"
-        raise RecordingCorrupt(f"{path}: not an MCAP recording ({why})")
-    return path.stat().st_size
+        raise RecordingCorrupt(f"{one_line(str(path))}: not an MCAP recording ({why})")
+    return st.st_size
 
 
 @dataclass
@@ -195,12 +204,14 @@ class RecordingStream:
         a damaged first chunk then does not take every channel with it."""
         try:
             tail = os.pread(fd, _FOOTER_BYTES, self.size_bytes - _FOOTER_BYTES)
-            opcode, length, start = struct.unpack_from("<BQQ", tail, 0)
+            opcode, length, start, _, crc = struct.unpack_from("<BQQQI", tail, 0)
             if opcode != Opcode.FOOTER or not tail.endswith(MCAP_MAGIC) or not 8 <= start < self.size_bytes:
                 return
             if self.size_bytes - _FOOTER_BYTES - start > _SUMMARY_MAX:
                 return
             summary = os.pread(fd, self.size_bytes - _FOOTER_BYTES - start, start)
+            if crc and zlib.crc32(tail[:_RECORD_HEAD.size + 16], zlib.crc32(summary)) != crc:
+                return  # not this file's summary (another file appended?) or a damaged one
             pos = 0
             while pos + _RECORD_HEAD.size <= len(summary):
                 op, n = _RECORD_HEAD.unpack_from(summary, pos)
