@@ -366,3 +366,20 @@ def test_jostle_info_refuses_what_is_not_a_regular_file_in_one_line(tmp_path: Pa
     err = capsys.readouterr().err.strip()
     expected = {"a symlink loop": "symlink loop", "missing": "recording not found"}.get(kind, f"found {kind}")
     assert err.startswith(f"jostle: error: {path}: ") and expected in err and "\n" not in err
+
+
+def test_a_depth_frame_with_a_calibration_for_another_size_is_skipped(tmp_path: Path) -> None:
+    from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+
+    frames = [f for f in sample_frames(seconds=0.3) if f.sensor == "depth"]
+    items = [(round(f.t * 1e9), f.seq, m) for f in frames for m in encode_frame(f, round(f.t * 1e9))]
+    for i, (t_ns, seq, m) in enumerate(items):
+        if m.role == "calibration" and seq == 3:
+            other = CameraCalibration.FromString(m.data)
+            other.width, other.height = 640, 400
+            items[i] = (t_ns, seq, EncodedMessage(m.topic, m.sensor, m.role, m.kind, m.schema_name,
+                                                  m.message_encoding, other.SerializeToString()))
+    path = write_messages(tmp_path / "calibration.mcap", items)
+    with pytest.warns(RecordingDamaged, match=r"calibration for 640x400 pixels, but the depth image is 160x120"):
+        got = list(iter_frames(path, "depth"))
+    assert [f.seq for f in got] == [s for s in range(len(frames)) if s != 3]

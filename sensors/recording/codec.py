@@ -356,6 +356,10 @@ class PayloadAssembler:
             k = list(self._calibration.value.K)
             if len(k) != 9 or not all(math.isfinite(v) for v in k):
                 raise CodecError(f"camera calibration K has {len(k)} values; expected 9 finite numbers")
+            cw, ch = int(self._calibration.value.width), int(self._calibration.value.height)
+            if cw and ch and (cw, ch) != (depth.shape[1], depth.shape[0]):  # 0 × 0: size not given
+                raise CodecError(f"camera calibration for {cw}x{ch} pixels, but the depth image is "
+                                 f"{depth.shape[1]}x{depth.shape[0]}")
             fx, cx, fy, cy = k[0], k[2], k[4], k[5]
         color = None
         c = self._color
