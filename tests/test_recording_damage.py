@@ -149,6 +149,20 @@ def test_a_zstd_bomb_chunk_without_a_summary_is_bounded(tmp_path: Path, declared
     assert played["frames"] == 12 and len(played["warnings"]) == 1 and played["rss_mb"] < 512
 
 
+def test_a_chunk_of_two_million_empty_messages_is_refused_by_its_record_count(tmp_path: Path) -> None:
+    """22 KB on disk, 62 MB decompressed (within budget), but 2 million Python objects: refused."""
+    message = struct.pack("<BQHIQQ", 0x05, 22, 1, 0, 10**8, 10**8)  # an empty message on channel 1
+    c = zstandard.ZstdCompressor(level=3).compressobj()
+    compressed = b"".join(c.compress(message * 100_000) for _ in range(20)) + c.flush()
+    good = write_messages(tmp_path / "good.mcap", colour_items(3))
+    path = tmp_path / "tiny.mcap"
+    path.write_bytes(no_summary(good) + chunk_record(compressed, len(message) * 2_000_000))
+    assert path.stat().st_size < 30_000
+    played = json.loads(capped(PLAY_ALL, str(path)).stdout)
+    assert played["frames"] == 3 and played["rss_mb"] < 512
+    assert len(played["warnings"]) == 1 and "more than the 250000 records allowed in one chunk" in played["warnings"][0]
+
+
 def test_a_raw_image_chunk_of_14000_squared_is_refused_by_its_budget(tmp_path: Path) -> None:
     """The issue's 15 KB depth RawImage of 14000 × 14000: a chunk claiming 392 MB from a few KB."""
     from foxglove_schemas_protobuf.RawImage_pb2 import RawImage

@@ -24,7 +24,7 @@ from mcap.opcode import Opcode
 from mcap.records import Channel, Schema
 
 from sensors.untrusted import UntrustedInput, budget_for, decompress
-from sensors.untrusted.limits import DECOMPRESS_CAP
+from sensors.untrusted.limits import CHUNK_RECORDS_MAX, DECOMPRESS_CAP
 
 HEAD = struct.Struct("<BQ")  # opcode, record length
 CHUNK_FIXED = struct.Struct("<QQQII")  # start, end, uncompressed size, uncompressed CRC, compression length
@@ -95,9 +95,13 @@ def open_chunk(record: bytes, what: str) -> bytes:
 
 def inner_records(data: bytes) -> Iterator[tuple[int, int, int]]:
     """(opcode, body start, body end) of each schema, channel or message record in uncompressed chunk
-    ``data``; private records are skipped. ChunkUnreadable on any other record or a cut one."""
-    pos, end = 0, len(data)
+    ``data``; private records are skipped. ChunkUnreadable on any other record, a cut one, or more
+    than CHUNK_RECORDS_MAX records (each becomes a Python object: bounded memory)."""
+    pos, end, count = 0, len(data), 0
     while pos < end:
+        count += 1
+        if count > CHUNK_RECORDS_MAX:
+            raise ChunkUnreadable(f"more than the {CHUNK_RECORDS_MAX} records allowed in one chunk")
         if pos + HEAD.size > end:
             raise ChunkUnreadable("a record header inside the chunk is cut")
         opcode, length = HEAD.unpack_from(data, pos)

@@ -45,6 +45,7 @@ from sensors.recording.stream import RecordedMessage, RecordingDamage, Recording
 from sensors.untrusted import Timeline
 
 CHUNK_CACHE_BYTES = 64 * 1024 * 1024
+MESSAGE_COST = 200  # bytes of Python objects per message held, besides its data (counted in the cache)
 _SENSOR_ROLES = ("frame", "calibration", "aligned_color")
 
 
@@ -112,7 +113,7 @@ class SharedRecording:
                 slot = self._cache.get(ref.offset)
                 owner = slot is None
                 if slot is None:
-                    slot = self._cache[ref.offset] = _Slot(ref.uncompressed_size)
+                    slot = self._cache[ref.offset] = _Slot(ref.uncompressed_size + MESSAGE_COST * ref.message_count)
                     self._cached_bytes += slot.size
                     self.chunks_read += 1
                     self._trim()
