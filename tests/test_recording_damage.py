@@ -10,6 +10,7 @@ import resource
 import struct
 import subprocess
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -147,6 +148,18 @@ def test_a_zstd_bomb_chunk_without_a_summary_is_bounded(tmp_path: Path, declared
     assert "12 msgs" in out.stdout and "1 damaged chunk" in out.stdout
     played = json.loads(capped(PLAY_ALL, str(path)).stdout)
     assert played["frames"] == 12 and len(played["warnings"]) == 1 and played["rss_mb"] < 512
+
+
+def test_many_small_bomb_chunks_are_bounded_by_the_file_budget(tmp_path: Path) -> None:
+    """1500 chunks of 2 KB, each 64 MiB of zeros (each within its own budget): without a budget for
+    the whole file, 96 GB to decompress (7 min here); with it, 64× the file's size at most."""
+    good = write_messages(tmp_path / "good.mcap", colour_items(3))
+    path = tmp_path / "many.mcap"
+    path.write_bytes(no_summary(good) + chunk_record(zeros_zstd(64 << 20), 64 << 20) * 1500)
+    start = time.monotonic()
+    out = capped(JOSTLE_INFO, str(path))
+    assert out.returncode == 0 and "Traceback" not in out.stderr, out.stderr[-2000:]
+    assert "lost       1500 damaged chunks" in out.stdout and time.monotonic() - start < 30
 
 
 def test_a_chunk_of_two_million_empty_messages_is_refused_by_its_record_count(tmp_path: Path) -> None:

@@ -24,7 +24,7 @@ from mcap.opcode import Opcode
 from mcap.records import Channel, Schema
 
 from sensors.untrusted import UntrustedInput, budget_for, decompress
-from sensors.untrusted.limits import CHUNK_RECORDS_MAX, DECOMPRESS_CAP
+from sensors.untrusted.limits import CHUNK_RECORDS_MAX, DECOMPRESS_CAP, DECOMPRESS_FLOOR, DECOMPRESS_RATIO
 
 HEAD = struct.Struct("<BQ")  # opcode, record length
 CHUNK_FIXED = struct.Struct("<QQQII")  # start, end, uncompressed size, uncompressed CRC, compression length
@@ -74,8 +74,17 @@ def chunk_length_at(head: bytes, at: int, room: int, *, bounded: bool = True) ->
     return int(HEAD.size + length)
 
 
-def open_chunk(record: bytes, what: str) -> bytes:
+def file_budget(size_bytes: int) -> int:
+    """Bytes all the chunks of a file of ``size_bytes`` may decompress to in one pass over it:
+    DECOMPRESS_RATIO × its size, at least DECOMPRESS_FLOOR (``sensors.untrusted.limits``). Each chunk
+    also has its own budget (``budget_for``); this one bounds the time a file of many small
+    chunks, each within its own budget, can take (the recordings here decompress to 1–9× their size)."""
+    return max(DECOMPRESS_FLOOR, DECOMPRESS_RATIO * size_bytes)
+
+
+def open_chunk(record: bytes, what: str, left: int | None = None) -> bytes:
     """The uncompressed records of one whole chunk record (opcode and length included), CRC checked.
+    ``left``: what is left of the file's budget (:func:`file_budget`), if the caller counts it.
     Raises ChunkUnreadable with one line; never allocates more than the decompression budget."""
     if chunk_length_at(record, 0, len(record), bounded=False) != len(record):
         raise ChunkUnreadable("the chunk header is not consistent with its record")
@@ -84,6 +93,8 @@ def open_chunk(record: bytes, what: str) -> bytes:
     compression = record[at:at + name_length].decode("ascii")
     at += name_length + 8
     compressed = record[at:]
+    if left is not None and left < size <= budget_for(len(compressed)):  # else decompress says why
+        raise ChunkUnreadable(over_file_budget(size, left))
     try:
         data = decompress(compressed, compression, size, budget_for(len(compressed)), what)
     except UntrustedInput as e:
@@ -91,6 +102,11 @@ def open_chunk(record: bytes, what: str) -> bytes:
     if crc and zlib.crc32(data) != crc:
         raise ChunkUnreadable(f"chunk CRC {crc:#010x}, computed {zlib.crc32(data):#010x}")
     return data
+
+
+def over_file_budget(size: int, left: int) -> str:
+    return (f"claims {size} bytes uncompressed, more than the {max(0, left)} left of the file's decompression "
+            f"budget ({DECOMPRESS_RATIO}× its size)")
 
 
 def inner_records(data: bytes) -> Iterator[tuple[int, int, int]]:

@@ -28,7 +28,7 @@ from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, ChunkIndex, Metadata, MetadataIndex, Schema, Statistics
 
-from sensors.recording.chunks import ChunkUnreadable, RecordedMessage, chunk_messages, open_chunk
+from sensors.recording.chunks import ChunkUnreadable, RecordedMessage, chunk_messages, file_budget, open_chunk
 from sensors.recording.stream import MCAP_MAGIC
 from sensors.untrusted import Timeline
 
@@ -51,6 +51,7 @@ class ChunkRef:
     message_count: int
     last_ns: int | None  # log time of its last message in file order
     channel_ids: frozenset[int]
+    budget_left: int | None = None  # of the file's decompression budget before it (None: not counted)
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,6 +76,10 @@ class RecordingIndex:
 
 class _Unusable(Exception):
     pass
+
+
+def fd_size(fd: int) -> int:
+    return os.fstat(fd).st_size
 
 
 def _pread(fd: int, length: int, offset: int) -> bytes:
@@ -178,6 +183,7 @@ def _read_index(fd: int, size_bytes: int) -> RecordingIndex:
 
 def _chunks(fd: int, indexes: list[ChunkIndex], data_end: int) -> tuple[list[ChunkRef], dict[int, ChannelStats]]:
     chunks: list[ChunkRef] = []
+    left = file_budget(fd_size(fd))
     stamps: dict[int, list[tuple[int, int, int]]] = {}  # channel → [(chunk offset, offset in chunk, time)]
     previous_end = len(MCAP_MAGIC)
     for c in indexes:
@@ -200,7 +206,8 @@ def _chunks(fd: int, indexes: list[ChunkIndex], data_end: int) -> tuple[list[Chu
                 if last is None or at[1] > last[0]:
                     last = (at[1], at[0])
         chunks.append(ChunkRef(c.chunk_start_offset, c.chunk_length, c.uncompressed_size, total,
-                               None if last is None else last[1], frozenset(entries)))
+                               None if last is None else last[1], frozenset(entries), left))
+        left -= c.uncompressed_size
     return chunks, {cid: channel_stats(t for _, _, t in sorted(found)) for cid, found in stamps.items() if found}
 
 
@@ -228,7 +235,7 @@ def read_chunk(fd: int, ref: ChunkRef, channels: dict[int, Channel],
     record = os.pread(fd, ref.length, ref.offset)
     if len(record) != ref.length:
         raise ChunkUnreadable("the chunk runs past the end of the file")
-    data = open_chunk(record, f"chunk at byte {ref.offset}")
+    data = open_chunk(record, f"chunk at byte {ref.offset}", ref.budget_left)
     if len(data) != ref.uncompressed_size:
         raise ChunkUnreadable(f"the chunk holds {len(data)} bytes, its index says {ref.uncompressed_size}")
     messages, orphans = chunk_messages(data, dict(channels), dict(schemas), ref.offset)

@@ -25,7 +25,15 @@ from mcap.opcode import Opcode
 from mcap.records import Channel, Footer, Message, Metadata, Schema
 
 from sensors.base import RecordingCorrupt, SensorUnavailable
-from sensors.recording.chunks import RecordedMessage, chunk_length_at, chunk_messages, find_chunk, open_chunk
+from sensors.recording.chunks import (
+    CHUNK_FIXED,
+    RecordedMessage,
+    chunk_length_at,
+    chunk_messages,
+    file_budget,
+    find_chunk,
+    open_chunk,
+)
 from sensors.untrusted import MissingInput, one_line
 from sensors.untrusted.files import kind_of, refuse_os_error
 from sensors.untrusted.limits import DECOMPRESS_CAP
@@ -132,6 +140,7 @@ class RecordingStream:
         self.good_messages = 0
         self.last_good_ns: int | None = None
         self._counting_lost = False  # message indexes that follow now belong to a lost chunk
+        self._budget_left = file_budget(self.size_bytes)  # bytes this pass may still decompress
 
     def _damaged(self, offset: int, reason: str) -> None:
         if self.damage is None:
@@ -161,7 +170,7 @@ class RecordingStream:
                     try:
                         found = self._parse(fd, opcode, offset, length)
                     except Exception as e:  # bytes from disk: any parse failure is damage
-                        problem = f"{_opcode_name(opcode)} record unreadable: {one_line(str(e), 160)}"
+                        problem = f"{_opcode_name(opcode)} record unreadable: {one_line(str(e) or type(e).__name__, 160)}"
                 if problem:
                     self._damaged(offset, problem)
                     resume = self._resume(fd, offset, opcode, length, problem)
@@ -243,7 +252,11 @@ class RecordingStream:
         body = record[_RECORD_HEAD.size:]
         stream = ReadDataStream(BytesIO(body))
         if opcode == Opcode.CHUNK:
-            data = open_chunk(record, f"chunk at byte {offset}")
+            left = self._budget_left
+            _, _, declared, _, _ = CHUNK_FIXED.unpack_from(record, _RECORD_HEAD.size)
+            if declared <= left and chunk_length_at(record, 0, len(record)) == len(record):
+                self._budget_left -= declared  # charged before the attempt: one that fails costs time too
+            data = open_chunk(record, f"chunk at byte {offset}", left)
             found, orphans = chunk_messages(data, self.channels, self.schemas, offset)
             if orphans:
                 self.losses.messages += orphans
