@@ -59,11 +59,11 @@ class RecordingDamage:
     last_good_ns: int | None
 
     def describe(self, path: Path) -> str:
-        """One line for the user: the file, the byte, the reason and what is kept."""
+        """One line for the user: the file, the byte, the reason and what was read before it."""
         if self.last_good_ns is None:
             kept = "no message before it"
         else:
-            kept = f"{self.good_messages} messages kept, the last at t={self.last_good_ns / 1e9:.3f} s"
+            kept = f"{self.good_messages} messages before it, the last at t={self.last_good_ns / 1e9:.3f} s"
         return f"{path}: recording damaged at byte {self.offset} of {self.size_bytes} ({self.reason}); {kept}"
 
 
