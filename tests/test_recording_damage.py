@@ -410,3 +410,74 @@ def test_a_depth_frame_with_a_calibration_for_another_size_is_skipped(tmp_path: 
     with pytest.warns(RecordingDamaged, match=r"calibration for 640x400 pixels, but the depth image is 160x120"):
         got = list(iter_frames(path, "depth"))
     assert [f.seq for f in got] == [s for s in range(len(frames)) if s != 3]
+
+
+# ---------------------------------------------------------------- generated damage
+
+
+def _mutations(data: bytes, n: int, seed: int) -> list[tuple[str, bytes]]:
+    """``n`` byte-wise damaged copies of ``data``: zeroed blocks, random bytes, flipped bits, cuts,
+    a block moved elsewhere, a record header overwritten; seeded, so a failure can be replayed."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for i in range(n):
+        kind = ("zeros", "random", "bits", "cut", "move", "header")[i % 6]
+        b = bytearray(data)
+        at = int(rng.integers(8, len(b) - 64))
+        size = int(rng.choice([1, 16, 512, 4096, 32768]))
+        if kind == "zeros":
+            b[at : at + size] = bytes(len(b[at : at + size]))
+        elif kind == "random":
+            b[at : at + size] = rng.integers(0, 256, len(b[at : at + size]), dtype=np.uint8).tobytes()
+        elif kind == "bits":
+            for j in rng.integers(8, len(b), 8):
+                b[int(j)] ^= 1 << int(rng.integers(0, 8))
+        elif kind == "cut":
+            del b[at:]
+        elif kind == "move":
+            block = bytes(b[at : at + size])
+            del b[at : at + size]
+            to = int(rng.integers(8, len(b)))
+            b[to:to] = block
+        else:  # an opcode and a length that claim anything
+            b[at : at + 9] = struct.pack("<BQ", int(rng.choice([0x05, 0x06, 0x07, 0x0F, 0x80])),
+                                         int(rng.integers(0, 2**63)))
+        out.append((f"{kind} at {at} ({size})", bytes(b)))
+    return out
+
+
+def _read_everything(path: Path) -> int:
+    from sensors.base import RecordingCorrupt, SensorUnavailable
+    from sensors.recording.source import iter_payloads
+
+    try:
+        info = describe_recording(path, verify=True)
+        describe_recording(path)
+        return sum(sum(1 for _ in iter_payloads(path, c.topic, on_damage=None)) for c in info.sensor_channels)
+    except (RecordingCorrupt, SensorUnavailable) as e:  # the user errors a recording may give
+        assert "\n" not in str(e)
+        return 0
+
+
+@pytest.mark.parametrize(("seed", "summary"), [(1, True), (2, False)], ids=["summary", "walk"])
+def test_generated_damage_gives_frames_or_one_user_error_never_a_crash(tmp_path: Path, seed: int,
+                                                                         summary: bool) -> None:
+    source = write_recording(tmp_path / "source.mcap", sample_frames(seconds=0.5), chunk_size=16 * 1024)
+    data = source.read_bytes() if summary else no_summary(source)
+    complete = _read_everything(source)
+    for name, damaged in _mutations(data, 24, seed):
+        path = tmp_path / "damaged.mcap"
+        path.write_bytes(damaged)
+        start = time.monotonic()
+        assert 0 <= _read_everything(path) <= complete, name
+        assert time.monotonic() - start < 10, name
+
+
+@pytest.mark.slow
+def test_generated_damage_many(tmp_path: Path) -> None:
+    source = write_recording(tmp_path / "source.mcap", sample_frames(seconds=1.0), chunk_size=16 * 1024)
+    complete = _read_everything(source)
+    for name, damaged in _mutations(source.read_bytes(), 600, 7):
+        path = tmp_path / "damaged.mcap"
+        path.write_bytes(damaged)
+        assert 0 <= _read_everything(path) <= complete, name
