@@ -106,7 +106,7 @@ class Losses:
         return any((self.chunks, self.bytes, self.messages, self.frames, self.appended))
 
     def describe(self) -> str:
-        """e.g. '2 damaged chunks (8.2 KB, 31 messages) skipped, 1 frame with a bad time skipped'."""
+        """One line, e.g. '2 damaged chunks (8.2 KB, 31 messages) skipped, 1 damaged frame skipped'."""
         parts = []
         if self.chunks or self.bytes:
             what = f"{self.bytes / 1e3:.1f} KB" + (f", {self.messages} messages" if self.messages else "")
