@@ -75,7 +75,7 @@ def chunk_length_at(head: bytes, at: int, room: int, *, bounded: bool = True) ->
 
 
 def file_budget(size_bytes: int) -> int:
-    """Bytes all the chunks of a file of ``size_bytes`` may decompress to in one pass over it:
+    """Bytes all the chunks of a file of ``size_bytes`` may be read and decompressed to in one pass:
     DECOMPRESS_RATIO × its size, at least DECOMPRESS_FLOOR (``sensors.untrusted.limits``). Each chunk
     also has its own budget (``budget_for``); this one bounds the time a file of many small
     chunks, each within its own budget, can take (the recordings here decompress to 1–9× their size)."""
@@ -105,8 +105,9 @@ def open_chunk(record: bytes, what: str, left: int | None = None) -> bytes:
 
 
 def over_file_budget(size: int, left: int) -> str:
-    return (f"claims {size} bytes uncompressed, more than the {max(0, left)} left of the file's decompression "
-            f"budget ({DECOMPRESS_RATIO}× its size)")
+    """Why a chunk of ``size`` bytes (to read or to decompress) is refused when ``left`` remain."""
+    return (f"{size} bytes to read or decompress, more than the {max(0, left)} left of the file's budget "
+            f"({DECOMPRESS_RATIO}× its size) for this pass")
 
 
 def inner_records(data: bytes) -> Iterator[tuple[int, int, int]]:

@@ -27,12 +27,14 @@ from mcap.records import Channel, Footer, Message, Metadata, Schema
 from sensors.base import RecordingCorrupt, SensorUnavailable
 from sensors.recording.chunks import (
     CHUNK_FIXED,
+    ChunkUnreadable,
     RecordedMessage,
     chunk_length_at,
     chunk_messages,
     file_budget,
     find_chunk,
     open_chunk,
+    over_file_budget,
 )
 from sensors.untrusted import MissingInput, one_line
 from sensors.untrusted.files import kind_of, refuse_os_error
@@ -248,6 +250,10 @@ class RecordingStream:
         self._counting_lost = False
         if length > _RECORD_MAX:
             raise ValueError(f"a {_opcode_name(opcode)} record of {length} bytes is over the {_RECORD_MAX} allowed")
+        if opcode == Opcode.CHUNK:  # reads overlap only when resuming past damage: they share the budget
+            if _RECORD_HEAD.size + length > self._budget_left:
+                raise ChunkUnreadable(over_file_budget(_RECORD_HEAD.size + length, self._budget_left))
+            self._budget_left -= _RECORD_HEAD.size + length
         record = os.pread(fd, _RECORD_HEAD.size + length, offset)
         body = record[_RECORD_HEAD.size:]
         stream = ReadDataStream(BytesIO(body))
