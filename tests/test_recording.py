@@ -261,15 +261,15 @@ def test_file_cut_in_its_summary_keeps_every_frame(jpeg_file: Path, tmp_path: Pa
     assert len(got) == 100
 
 
-def test_corrupt_chunk_in_the_middle_stops_there(jpeg_file: Path, tmp_path: Path) -> None:
+def test_corrupt_chunk_in_the_middle_is_skipped(jpeg_file: Path, tmp_path: Path) -> None:
     data = bytearray(jpeg_file.read_bytes())
     middle = len(data) // 2
     data[middle : middle + 64] = bytes(64)  # zeroes inside a compressed chunk
     bad = tmp_path / "flipped.mcap"
     bad.write_bytes(bytes(data))
-    with pytest.warns(RecordingDamaged, match=r"chunk record unreadable"):
+    with pytest.warns(RecordingDamaged, match=r"chunk record unreadable.*reading goes on"):
         got = replay_channel(bad, "cam")
-    assert 0 < len(got) < 30
+    assert 20 < len(got) < 30  # one chunk lost, the ones after it played
 
 
 def test_garbage_file_is_refused_in_one_line(tmp_path: Path) -> None:

@@ -144,11 +144,13 @@ def add_info(sub: Sub) -> None:
         help="summarise a recording: channels, message counts, duration",
         formatter_class=RAW,
         description="Print what an MCAP recording holds: each channel (sensor) with its kind, schema,\n"
-        "message count, rate and image size; the duration; whether the file is damaged.",
+        "message count, rate and image size; the duration; whether the file is damaged and how much\n"
+        "was lost (every chunk is read and checked; --quick describes it from its summary alone).",
         epilog="example:\n  jostle info configs/recordings/demo.mcap\n  jostle info session.mcap --json",
     )
     p.add_argument("recording", type=Path)
     p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--quick", action="store_true", help="describe from the summary, without reading the chunks")
     p.set_defaults(func=cmd_info)
 
 
@@ -158,7 +160,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 
     from sensors.recording.info import describe_recording, format_info
 
-    info = describe_recording(args.recording)
+    info = describe_recording(args.recording, verify=not args.quick)
     if args.json:
         print(json.dumps(dataclasses.asdict(info), indent=2, default=str))
     else:

@@ -13,7 +13,7 @@ Every channel carries metadata ``jostle.sensor``, ``jostle.role`` and ``jostle.k
 knows which channels belong together without guessing from topic names.
 
 Decoding never runs anything from the file: protobuf classes are built from the embedded
-descriptors by ``mcap_protobuf``'s ``DecoderFactory`` (data only), JSON goes through ``json.loads``.
+descriptors by ``mcap_protobuf``'s ``DecoderFactory`` (data only), JSON through ``sensors.untrusted.parse_json``.
 cv2 is imported only when an image is encoded or decoded, never at import.
 """
 
@@ -35,6 +35,8 @@ from mcap_protobuf.decoder import DecoderFactory
 from mcap_protobuf.schema import build_file_descriptor_set
 
 from sensors.base import ColorImage, DepthImage, Frame, PadSample, Payload
+from sensors.untrusted import UntrustedInput, check_image, check_raw_image, one_line, parse_json
+from sensors.untrusted.limits import MESSAGE_JSON
 
 ColorFormat = Literal["jpeg", "png"]
 ChannelRole = Literal["frame", "calibration", "aligned_color", "other"]
@@ -217,8 +219,17 @@ def classify_channel(channel: Channel, schema: Schema | None) -> ChannelRoleInfo
 
 
 def decode_color(data: bytes) -> np.ndarray:
+    """JPEG or PNG bytes → BGR uint8 (H, W, 3). The header's declared size is checked first
+    (``check_image``: not 0, within the pixel budget); any refusal or OpenCV error is a CodecError."""
+    try:
+        check_image(data, "compressed image")
+    except UntrustedInput as e:
+        raise CodecError(e.message) from None
     cv2 = _cv2()
-    img = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
+    try:
+        img = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
+    except cv2.error as e:
+        raise CodecError(f"compressed image of {len(data)} bytes cannot be decoded ({one_line(str(e), 120)})") from None
     if img is None:
         raise CodecError(f"compressed image of {len(data)} bytes cannot be decoded")
     return np.asarray(img, dtype=np.uint8)
@@ -235,7 +246,11 @@ def _decode_raw(msg: Any) -> np.ndarray:
     else:
         raise CodecError(f"raw image encoding {enc!r} is not supported (expected 16UC1, mono16, bgr8 or rgb8)")
     row = w * channels * dtype.itemsize
-    if w <= 0 or h <= 0 or step < row or step % dtype.itemsize or len(data) < step * h:
+    try:  # declared shape against the payload and the pixel budget, before any array is made
+        check_raw_image(w, h, step, channels * dtype.itemsize, len(data), f"raw image {enc}")
+    except UntrustedInput as e:
+        raise CodecError(e.message) from None
+    if step % dtype.itemsize:
         raise CodecError(f"raw image {w}x{h} {enc} with step {step} does not fit its {len(data)} bytes")
     rows = np.frombuffer(data, dtype=np.uint8, count=step * h).reshape(h, step)[:, :row]
     img = np.ascontiguousarray(rows).view(dtype)
@@ -246,20 +261,28 @@ def _decode_raw(msg: Any) -> np.ndarray:
 
 
 def decode_pads(data: bytes) -> PadSample:
+    """A pad sample's JSON (bounded: ``MESSAGE_JSON``) → PadSample; newtons must be finite numbers and
+    raw counts integers. Anything else is a CodecError (a damaged frame)."""
     try:
-        body = json.loads(data)
-    except (ValueError, UnicodeDecodeError) as e:
-        raise CodecError(f"pad sample is not JSON ({e})") from e
+        body = parse_json(data, "pad sample", MESSAGE_JSON)
+    except UntrustedInput as e:
+        raise CodecError(e.message) from None
     if not isinstance(body, dict) or not isinstance(body.get("newtons"), list) or not isinstance(body.get("raw"), list):
         raise CodecError('pad sample: expected {"newtons": [...], "raw": [...]}')
     newtons, raw = body["newtons"], body["raw"]
-    # json.loads gives exactly int, float, bool, str, list, dict or None: compare types, not isinstance
+    # json gives exactly int, float, bool, str, list, dict or None: compare types, not isinstance
     # (bool is an int subclass and must be refused)
     if not all(type(x) is float or type(x) is int for x in newtons):
         raise CodecError("pad sample: newtons must be numbers")
+    try:
+        values = tuple(map(float, newtons))
+    except OverflowError:  # an integer beyond any float
+        values = (math.inf,)
+    if not all(math.isfinite(v) for v in values):
+        raise CodecError("pad sample: newtons must be finite numbers")
     if not all(type(x) is int for x in raw):
         raise CodecError("pad sample: raw must be integers")
-    return PadSample(newtons=tuple(map(float, newtons)), raw=tuple(raw))
+    return PadSample(newtons=values, raw=tuple(raw))
 
 
 @dataclass(frozen=True, slots=True)
@@ -333,6 +356,10 @@ class PayloadAssembler:
             k = list(self._calibration.value.K)
             if len(k) != 9 or not all(math.isfinite(v) for v in k):
                 raise CodecError(f"camera calibration K has {len(k)} values; expected 9 finite numbers")
+            cw, ch = int(self._calibration.value.width), int(self._calibration.value.height)
+            if cw and ch and (cw, ch) != (depth.shape[1], depth.shape[0]):  # 0 × 0: size not given
+                raise CodecError(f"camera calibration for {cw}x{ch} pixels, but the depth image is "
+                                 f"{depth.shape[1]}x{depth.shape[0]}")
             fx, cx, fy, cy = k[0], k[2], k[4], k[5]
         color = None
         c = self._color

@@ -20,26 +20,25 @@ from __future__ import annotations
 import os
 import struct
 import zlib
+from collections.abc import Iterable
 from dataclasses import dataclass
 from io import BytesIO
 
-import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, ChunkIndex, Metadata, MetadataIndex, Schema, Statistics
 
-from sensors.recording.stream import MCAP_MAGIC, RecordedMessage
+from sensors.recording.chunks import ChunkUnreadable, RecordedMessage, chunk_messages, file_budget, open_chunk
+from sensors.recording.stream import MCAP_MAGIC
+from sensors.untrusted import Timeline
+
+__all__ = ["ChannelStats", "ChunkRef", "ChunkUnreadable", "RecordingIndex", "channel_stats", "chunk_messages", "read_chunk",
+           "read_index"]
 
 _HEAD = struct.Struct("<BQ")  # opcode, record length
 _FOOTER = struct.Struct("<QQI")  # summary start, summary offset start, summary CRC
 _FOOTER_BYTES = _HEAD.size + _FOOTER.size + len(MCAP_MAGIC)
-_CHUNK_FIXED = struct.Struct("<QQQII")  # start, end, uncompressed size, uncompressed CRC, compression length
-_MESSAGE_FIXED = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
 _INDEX_ENTRY = struct.Struct("<QQ")  # log time, offset in the uncompressed chunk
-
-
-class ChunkUnreadable(Exception):
-    """A chunk that the index points to cannot be read; the message says why (one line)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,13 +51,15 @@ class ChunkRef:
     message_count: int
     last_ns: int | None  # log time of its last message in file order
     channel_ids: frozenset[int]
+    budget_left: int | None = None  # of the file's decompression budget before it (None: not counted)
 
 
 @dataclass(frozen=True, slots=True)
 class ChannelStats:
-    count: int
+    count: int  # messages with a sound stamp (see channel_stats)
     first_ns: int
     last_ns: int
+    refused: int = 0  # messages whose stamp went back or jumped too far ahead
 
 
 @dataclass(frozen=True)
@@ -75,6 +76,10 @@ class RecordingIndex:
 
 class _Unusable(Exception):
     pass
+
+
+def fd_size(fd: int) -> int:
+    return os.fstat(fd).st_size
 
 
 def _pread(fd: int, length: int, offset: int) -> bytes:
@@ -162,7 +167,7 @@ def _read_index(fd: int, size_bytes: int) -> RecordingIndex:
         channel = channels.get(cid)
         if channel is None or (channel.schema_id and channel.schema_id not in schemas):
             raise _Unusable(f"channel {cid} not in the summary")
-        if statistics.channel_message_counts.get(cid, s.count) != s.count:
+        if statistics.channel_message_counts.get(cid, s.count + s.refused) != s.count + s.refused:
             raise _Unusable(f"channel {cid}: statistics and message index disagree")
     metadata: dict[str, dict[str, str]] = {}
     for m in metadata_indexes:
@@ -178,9 +183,8 @@ def _read_index(fd: int, size_bytes: int) -> RecordingIndex:
 
 def _chunks(fd: int, indexes: list[ChunkIndex], data_end: int) -> tuple[list[ChunkRef], dict[int, ChannelStats]]:
     chunks: list[ChunkRef] = []
-    counts: dict[int, int] = {}
-    firsts: dict[int, int] = {}
-    lasts: dict[int, int] = {}
+    left = file_budget(fd_size(fd))
+    stamps: dict[int, list[tuple[int, int, int]]] = {}  # channel → [(chunk offset, offset in chunk, time)]
     previous_end = len(MCAP_MAGIC)
     for c in indexes:
         index_end = c.chunk_start_offset + c.chunk_length + c.message_index_length
@@ -196,87 +200,45 @@ def _chunks(fd: int, indexes: list[ChunkIndex], data_end: int) -> tuple[list[Chu
         total = 0
         for cid, pairs in entries.items():
             total += len(pairs)
-            times = [t for t, _ in pairs]
+            stamps.setdefault(cid, []).extend((c.chunk_start_offset, at, t) for t, at in pairs)
             if pairs:
-                counts[cid] = counts.get(cid, 0) + len(pairs)
-                firsts[cid] = min(firsts.get(cid, times[0]), min(times))
-                lasts[cid] = max(lasts.get(cid, times[0]), max(times))
                 at = max(pairs, key=lambda p: p[1])
                 if last is None or at[1] > last[0]:
                     last = (at[1], at[0])
         chunks.append(ChunkRef(c.chunk_start_offset, c.chunk_length, c.uncompressed_size, total,
-                               None if last is None else last[1], frozenset(entries)))
-    stats = {cid: ChannelStats(n, firsts[cid], lasts[cid]) for cid, n in counts.items()}
-    return chunks, stats
+                               None if last is None else last[1], frozenset(entries), left))
+        left -= c.uncompressed_size
+    return chunks, {cid: channel_stats(t for _, _, t in sorted(found)) for cid, found in stamps.items() if found}
+
+
+def channel_stats(times: Iterable[int]) -> ChannelStats:
+    """Count, first and last of one channel's stamps in file order, through a ``Timeline``: a stamp
+    going back or jumping beyond the sane gap is not counted but ``refused`` (a damaged message)."""
+    timeline = Timeline("channel")
+    first: int | None = None
+    count = 0
+    for t in times:
+        if timeline.flag(t) is None:
+            count += 1
+            first = t if first is None else first
+    last = timeline.last_ns
+    return ChannelStats(count, first or 0, last or 0, timeline.refused)
 
 
 # ---------------------------------------------------------------- one chunk
 
 
-def _decompress(compression: str, data: memoryview, size: int) -> bytes:
-    if compression == "zstd":
-        out = zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
-    elif compression == "lz4":
-        import lz4.frame  # type: ignore[import-untyped]
-
-        out = lz4.frame.decompress(data)
-    elif compression == "":
-        out = bytes(data)
-    else:
-        raise ChunkUnreadable(f"compression {compression!r} is not supported (zstd, lz4 or none)")
-    if len(out) != size:
-        raise ChunkUnreadable(f"decompressed to {len(out)} bytes, the chunk says {size}")
-    return bytes(out)
-
-
 def read_chunk(fd: int, ref: ChunkRef, channels: dict[int, Channel],
                schemas: dict[int, Schema]) -> list[RecordedMessage]:
-    """Every message of one chunk, in record order (CRC checked). Raises ChunkUnreadable."""
+    """Every message of one chunk, in record order (decompressed within the budget, CRC checked);
+    channels and schemas the chunk declares itself are used too. Raises ChunkUnreadable."""
     record = os.pread(fd, ref.length, ref.offset)
     if len(record) != ref.length:
         raise ChunkUnreadable("the chunk runs past the end of the file")
-    try:
-        opcode, length = _HEAD.unpack_from(record, 0)
-        if opcode != Opcode.CHUNK or _HEAD.size + length != ref.length:
-            raise ChunkUnreadable(f"the index points to a {opcode:#04x} record of {length} bytes, not this chunk")
-        _, _, size, crc, name_length = _CHUNK_FIXED.unpack_from(record, _HEAD.size)
-        at = _HEAD.size + _CHUNK_FIXED.size
-        compression = record[at : at + name_length].decode()
-        (records_length,) = struct.unpack_from("<Q", record, at + name_length)
-        at += name_length + 8
-        if at + records_length > len(record) or size != ref.uncompressed_size:
-            raise ChunkUnreadable("chunk fields do not fit the record")
-        try:
-            data = _decompress(compression, memoryview(record)[at : at + records_length], size)
-        except zstandard.ZstdError as e:
-            raise ChunkUnreadable(f"ZstdError: {e}") from e
-        if crc and zlib.crc32(data) != crc:
-            raise ChunkUnreadable(f"CRCValidationError: chunk CRC {crc:#010x}, computed {zlib.crc32(data):#010x}")
-        return _messages(data, channels, schemas, ref.offset)
-    except (struct.error, UnicodeDecodeError, RuntimeError) as e:  # lz4 raises RuntimeError
-        raise ChunkUnreadable(f"{type(e).__name__}: {e}") from e
-
-
-def _messages(data: bytes, channels: dict[int, Channel], schemas: dict[int, Schema],
-              offset: int) -> list[RecordedMessage]:
-    out = []
-    pos, end = 0, len(data)
-    while pos < end:
-        if pos + _HEAD.size > end:
-            raise ChunkUnreadable("a record header inside the chunk is cut")
-        opcode, length = _HEAD.unpack_from(data, pos)
-        body = pos + _HEAD.size
-        pos = body + length
-        if pos > end:
-            raise ChunkUnreadable("a record inside the chunk runs past its end")
-        if opcode != Opcode.MESSAGE:
-            continue  # schemas and channels are in the summary too
-        if length < _MESSAGE_FIXED.size:
-            raise ChunkUnreadable(f"message record of {length} bytes")
-        channel_id, sequence, log_time, _ = _MESSAGE_FIXED.unpack_from(data, body)
-        channel = channels.get(channel_id)
-        if channel is None:
-            raise ChunkUnreadable(f"ValueError: message on unknown channel id {channel_id}")
-        schema = schemas.get(channel.schema_id) if channel.schema_id else None
-        out.append(RecordedMessage(channel, schema, log_time, sequence, data[body + _MESSAGE_FIXED.size : pos], offset))
-    return out
+    data = open_chunk(record, f"chunk at byte {ref.offset}", ref.budget_left)
+    if len(data) != ref.uncompressed_size:
+        raise ChunkUnreadable(f"the chunk holds {len(data)} bytes, its index says {ref.uncompressed_size}")
+    messages, orphans = chunk_messages(data, dict(channels), dict(schemas), ref.offset)
+    if orphans:
+        raise ChunkUnreadable(f"{orphans} messages on channels declared nowhere")
+    return messages

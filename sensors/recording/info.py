@@ -2,18 +2,19 @@
 
 A complete file is described from its summary section and message indexes
 (:mod:`sensors.recording.index`); a cut or damaged one, or one written without indexes, by reading
-every record (:class:`sensors.recording.stream.RecordingStream`).
+every record (:class:`sensors.recording.stream.RecordingStream`). Damaged chunks are skipped and
+counted (``RecordingInfo.losses``); stamps that go back or jump beyond the sane gap are not counted.
 
 Damage is reported with ``warnings.warn`` and the category :class:`RecordingDamaged` (a
-``UserWarning``): the frames before the damage are kept, the user is told once which file broke,
-at which byte and at which time, and tests can catch it with ``pytest.warns``.
+``UserWarning``): what is readable is kept, the user is told once which file broke, at which byte
+and at which time, and tests can catch it with ``pytest.warns``.
 """
 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from sensors.base import (
@@ -26,7 +27,14 @@ from sensors.base import (
 )
 from sensors.recording.codec import ChannelRoleInfo, CodecError, PayloadAssembler, classify_channel
 from sensors.recording.index import ChunkRef, ChunkUnreadable, RecordingIndex, read_chunk, read_index
-from sensors.recording.stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
+from sensors.recording.stream import (
+    Losses,
+    RecordedMessage,
+    RecordingDamage,
+    RecordingStream,
+    check_recording_file,
+)
+from sensors.untrusted import Timeline
 
 FRAME_KINDS = ("color", "depth", "pads")
 METADATA_NAME = "jostle"
@@ -55,6 +63,7 @@ class ChannelInfo:
     width: int | None = None
     height: int | None = None
     pads: int | None = None
+    bad_times: int = 0  # messages skipped: their stamp went back or jumped beyond the sane gap
 
     @property
     def first_t(self) -> float:
@@ -83,6 +92,7 @@ class RecordingInfo:
     last_ns: int = 0
     complete: bool = True  # footer and closing magic present
     checked: bool = True  # every record was read (False: described from the summary, chunks not read)
+    losses: Losses = field(default_factory=Losses)  # what was skipped (damaged chunks, frames, appended bytes)
 
     @property
     def sensor_channels(self) -> tuple[ChannelInfo, ...]:
@@ -98,6 +108,8 @@ class _Tally:
     last_ns: int = 0
     size: tuple[int, int] | None = None
     pads: int | None = None
+    refused: int = 0  # messages whose stamp went back or jumped beyond the sane gap
+    timeline: Timeline = field(default_factory=lambda: Timeline("channel"))
 
     def size_from(self, payload: Payload | None) -> None:
         if isinstance(payload, ColorImage | DepthImage):
@@ -108,87 +120,129 @@ class _Tally:
 
 def describe_recording(path: Path, *, verify: bool = False) -> RecordingInfo:
     """What a recording holds. Raises SensorUnavailable if the file is missing, RecordingCorrupt if
-    it is not MCAP. Damage does not raise: ``truncated`` is set and ``damage`` says where.
+    it is not MCAP. Damage does not raise: ``truncated`` is set, ``damage`` says where the first is
+    and ``losses`` how much was skipped (reading goes on past a damaged chunk).
 
-    A complete file is described from its summary and message indexes (decompressing only the chunk
+    A complete file is described from its summary and message indexes (decompressing only a chunk
     holding each sensor's first frame, for its size); chunk contents are then not checked
-    (``checked`` is False). ``verify=True``, or a file without a usable summary, reads every record.
+    (``checked`` is False). ``verify=True`` reads every chunk; a file without a usable summary is
+    read record by record.
     """
     path = Path(path)
     size = check_recording_file(path)
-    if not verify:
-        with path.open("rb") as f:
-            index = read_index(f.fileno(), size)
-            if index is not None:
-                fd = f.fileno()
-                info = describe_indexed(path, index, lambda ref: read_chunk(fd, ref, index.channels, index.schemas))
-                if info is not None:
-                    return info
+    with path.open("rb") as f:
+        index = read_index(f.fileno(), size)
+        if index is not None:
+            fd = f.fileno()
+            return describe_indexed(path, index, lambda ref: read_chunk(fd, ref, index.channels, index.schemas),
+                                    verify=verify)
     return describe_scan(path)
 
 
-def describe_indexed(
-    path: Path, index: RecordingIndex, chunk: Callable[[ChunkRef], list[RecordedMessage]]
-) -> RecordingInfo | None:
-    """Describe a recording from its index; ``chunk`` reads one chunk (for the first frames' sizes).
-    None if a chunk it needs cannot be read (the caller then walks the file to find the damage)."""
+def describe_indexed(path: Path, index: RecordingIndex, chunk: Callable[[ChunkRef], list[RecordedMessage]],
+                     *, verify: bool = False) -> RecordingInfo:
+    """Describe a recording from its index; ``chunk`` reads one chunk. Without ``verify`` only a
+    chunk holding each sensor's first frame is read (for its size; the next one if it is damaged);
+    with it every chunk is read and the description is that of the messages read."""
+    if verify:
+        return _verified(path, index, chunk)
     tallies: dict[int, _Tally] = {}
     for cid, stats in sorted(index.channel_stats.items()):
         channel = index.channels[cid]
         schema = index.schemas.get(channel.schema_id) if channel.schema_id else None
         tallies[cid] = _Tally(classify_channel(channel, schema), schema.name if schema else "", stats.count,
-                              stats.first_ns, stats.last_ns)
+                              stats.first_ns, stats.last_ns, refused=stats.refused)
     for cid, t in tallies.items():
         if t.role.role != "frame":
             continue
-        ref = next(c for c in index.chunks if cid in c.channel_ids)
-        try:
-            messages = chunk(ref)
-        except ChunkUnreadable:
-            return None
-        msg = next((m for m in messages if m.channel.id == cid), None)
-        if msg is None:
-            return None  # the message index promised one
-        try:
-            t.size_from(PayloadAssembler().feed(t.role, msg.channel, msg.schema, msg.sequence, msg.log_time_ns,
-                                                msg.data))
-        except CodecError:  # left for Replay to report, with the frames before it
-            pass
+        for ref in (c for c in index.chunks if cid in c.channel_ids):
+            try:
+                msg = next((m for m in chunk(ref) if m.channel.id == cid), None)
+            except ChunkUnreadable:
+                continue  # left for Replay to report; the size comes from the next chunk
+            if msg is None:
+                continue
+            try:
+                t.size_from(PayloadAssembler().feed(t.role, msg.channel, msg.schema, msg.sequence, msg.log_time_ns,
+                                                    msg.data))
+            except CodecError:  # left for Replay to report
+                continue
+            break
+    losses = Losses(frames=sum(t.refused for t in tallies.values() if t.role.role == "frame"))
     return _info(path, index.size_bytes, tallies, {cid: index.channels[cid].topic for cid in tallies},
-                 index.metadata, damage=None, complete=True, checked=False)
+                 index.metadata, damage=None, losses=losses, complete=True, checked=False)
+
+
+def _verified(path: Path, index: RecordingIndex, chunk: Callable[[ChunkRef], list[RecordedMessage]]) -> RecordingInfo:
+    losses = Losses()
+    damage: list[RecordingDamage] = []
+    good, last_ns = 0, None
+
+    def messages() -> Iterator[RecordedMessage]:
+        nonlocal good, last_ns
+        for ref in index.chunks:
+            try:
+                found = chunk(ref)
+            except ChunkUnreadable as e:
+                if not damage:
+                    damage.append(RecordingDamage(ref.offset, index.size_bytes, f"chunk record unreadable: {e}",
+                                                  good, last_ns))
+                losses.chunks += 1
+                losses.bytes += ref.length
+                losses.messages += ref.message_count
+                continue
+            for msg in found:
+                good += 1
+                last_ns = msg.log_time_ns
+                yield msg
+
+    tallies = _tally(messages())
+    losses.frames = sum(t.refused for t in tallies.values() if t.role.role == "frame")
+    return _info(path, index.size_bytes, tallies, {cid: index.channels[cid].topic for cid in tallies},
+                 index.metadata, damage=damage[0] if damage else None, losses=losses, complete=True, checked=True)
 
 
 def describe_scan(path: Path) -> RecordingInfo:
     """Read the whole recording once (decoding only the first frame of each sensor, for its size)."""
     stream = RecordingStream(Path(path))
+    tallies = _tally(stream.messages())
+    stream.losses.frames = sum(t.refused for t in tallies.values() if t.role.role == "frame")
+    return _info(stream.path, stream.size_bytes, tallies, {cid: stream.channels[cid].topic for cid in tallies},
+                 stream.metadata, damage=stream.damage, losses=stream.losses, complete=stream.complete, checked=True)
+
+
+def _tally(messages: Iterable[RecordedMessage]) -> dict[int, _Tally]:
+    """Per channel: count, first and last of the stamps a ``Timeline`` takes (the others counted as
+    refused), and the size of each sensor's first frame that decodes."""
     tallies: dict[int, _Tally] = {}
     assemblers: dict[str, PayloadAssembler] = {}
     sized: set[str] = set()  # sensors whose first frame was decoded for its size
-    for msg in stream.messages():
+    for msg in messages:
         t = tallies.get(msg.channel.id)
         if t is None:
             role = classify_channel(msg.channel, msg.schema)
-            t = tallies[msg.channel.id] = _Tally(role, msg.schema.name if msg.schema else "", first_ns=msg.log_time_ns)
+            t = tallies[msg.channel.id] = _Tally(role, msg.schema.name if msg.schema else "")
+        if t.timeline.flag(msg.log_time_ns) is not None:
+            t.refused += 1
+            continue
         t.count += 1
-        t.last_ns = max(t.last_ns, msg.log_time_ns)
-        t.first_ns = min(t.first_ns, msg.log_time_ns)
+        t.first_ns = msg.log_time_ns if t.count == 1 else t.first_ns
+        t.last_ns = msg.log_time_ns
         sensor = t.role.sensor
         if t.role.role in ("frame", "calibration", "aligned_color") and sensor not in sized:
             assembler = assemblers.setdefault(sensor, PayloadAssembler())
             try:
                 payload = assembler.feed(t.role, msg.channel, msg.schema, msg.sequence, msg.log_time_ns, msg.data)
-            except CodecError:  # left for Replay to report, with the frames before it
-                payload = None
+            except CodecError:  # left for Replay to report; the size comes from the next frame
+                continue
             if t.role.role == "frame":
                 sized.add(sensor)
             t.size_from(payload)
-    return _info(stream.path, stream.size_bytes, dict(sorted(tallies.items())),
-                 {cid: stream.channels[cid].topic for cid in tallies}, stream.metadata, damage=stream.damage,
-                 complete=stream.complete, checked=True)
+    return dict(sorted(tallies.items()))
 
 
 def _info(path: Path, size_bytes: int, tallies: dict[int, _Tally], topics: dict[int, str],
-          records: dict[str, dict[str, str]], *, damage: RecordingDamage | None, complete: bool,
+          records: dict[str, dict[str, str]], *, damage: RecordingDamage | None, losses: Losses, complete: bool,
           checked: bool) -> RecordingInfo:
     channels = []
     for cid, t in tallies.items():
@@ -197,8 +251,8 @@ def _info(path: Path, size_bytes: int, tallies: dict[int, _Tally], topics: dict[
         rate = (t.count - 1) / span if t.count > 1 and span > 0 else 0.0
         w, h = t.size if t.size else (None, None)
         channels.append(ChannelInfo(topics[cid], kind, t.schema_name, t.count, t.first_ns, t.last_ns, rate, w, h,
-                                    t.pads))
-    sensors = [c for c in channels if c.is_sensor] or channels
+                                    t.pads, t.refused))
+    sensors = [c for c in channels if c.is_sensor and c.message_count] or [c for c in channels if c.message_count]
     first = min((c.first_ns for c in sensors), default=0)
     last = max((c.last_ns for c in sensors), default=0)
     metadata: dict[str, str] = {}
@@ -208,7 +262,7 @@ def _info(path: Path, size_bytes: int, tallies: dict[int, _Tally], topics: dict[
     return RecordingInfo(
         path=path, channels=tuple(channels), duration=(last - first) / 1e9, size_bytes=size_bytes,
         metadata=metadata, truncated=damage is not None, damage=damage.describe(path) if damage else "",
-        first_ns=first, last_ns=last, complete=complete, checked=checked,
+        first_ns=first, last_ns=last, complete=complete, checked=checked, losses=losses,
     )
 
 
@@ -247,5 +301,11 @@ def format_info(info: RecordingInfo) -> str:
         lines.append(f"  {c.topic:<{width}}  {c.kind:<13} {c.schema_name:<26} {c.message_count:>7} msgs "
                      f"{c.rate_hz:7.2f} Hz  {shape:<9} t {c.first_t:.3f} to {c.last_t:.3f} s")
     status = "complete" if info.checked else "complete (from its summary; chunk contents not read)"
-    lines.append(f"status     {'DAMAGED: ' + info.damage if info.truncated else status}")
+    if info.truncated:
+        status = f"DAMAGED: {info.damage}"
+    elif info.losses:
+        status = "complete, with losses"
+    lines.append(f"status     {status}")
+    if info.losses:
+        lines.append(f"lost       {info.losses.describe()}")
     return "\n".join(lines)

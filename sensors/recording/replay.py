@@ -11,9 +11,10 @@ replaying that gives the very same times.
 Every replay of one file shares one reader (:func:`sensors.recording.source.open_recording`), and
 each decodes its frames in its own thread, at most :data:`LOOKAHEAD` frames ahead of ``read``;
 ``read`` waits for a frame that is due but not decoded yet, so what a replay returns, and when,
-does not depend on how fast the machine is. Damage (a cut or corrupt file) is reported once per
-replay with ``warnings.warn`` (:class:`sensors.recording.info.RecordingDamaged`); the frames
-before it are played, then ENDED. Out-of-order times and looping: see :class:`Replay`.
+does not depend on how fast the machine is. Damage (a cut or corrupt file, a damaged chunk or
+frame) is reported once per replay with ``warnings.warn`` (:class:`sensors.recording.info.RecordingDamaged`);
+what is damaged is skipped and the rest played (``status.bad`` counts the parts skipped).
+Out-of-order times and looping: see :class:`Replay`.
 """
 
 from __future__ import annotations
@@ -96,6 +97,7 @@ class Replay(SensorContext):
         self._open = False
         self._warned = False
         self._damage = ""
+        self._bad = 0  # damaged parts skipped (chunks, frames), reported once
         self._state = SensorState.CLOSED
         self._frames = 0
         self._recording: SharedRecording | None = None
@@ -142,10 +144,11 @@ class Replay(SensorContext):
     @property
     def status(self) -> SensorStatus:
         reason = self._damage or ("end of the recording" if self._state is SensorState.ENDED else "")
-        return SensorStatus(state=self._state, reason=reason, frames=self._frames, bad=1 if self._damage else 0)
+        return SensorStatus(state=self._state, reason=reason, frames=self._frames, bad=self._bad)
 
     def _report_damage(self, text: str) -> None:
         self._damage = self._damage or text
+        self._bad += 1
         if not self._warned:
             self._warned = True
             warn_damage(text)

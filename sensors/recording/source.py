@@ -7,8 +7,8 @@ recently read chunks, bounded in bytes, serves the others; what the cache holds 
 much work is done, never what is read). The key is the file's identity (device, inode, size,
 modification time), so a rewritten file is read afresh.
 
-:func:`sensor_items` yields one sensor's payloads in file order, then at most one :class:`Damaged`
-(the one-line description of where the recording stops being readable). :class:`SensorFeed` runs
+:func:`sensor_items` yields one sensor's payloads in file order, with a :class:`Damaged` item (one
+line) wherever a damaged chunk or frame was skipped; reading goes on past it. :class:`SensorFeed` runs
 it in a background thread into a bounded queue, so decoding (zstd and JPEG decoding release the
 GIL) overlaps the caller's work and the other sensors' decoding. What a feed yields is a function of
 the file alone — it never skips or reorders to keep up — so a replay stays deterministic.
@@ -42,14 +42,16 @@ from sensors.recording.info import (
     warn_damage,
 )
 from sensors.recording.stream import RecordedMessage, RecordingDamage, RecordingStream, check_recording_file
+from sensors.untrusted import Timeline
 
 CHUNK_CACHE_BYTES = 64 * 1024 * 1024
+MESSAGE_COST = 200  # bytes of Python objects per message held, besides its data (counted in the cache)
 _SENSOR_ROLES = ("frame", "calibration", "aligned_color")
 
 
 @dataclass(frozen=True, slots=True)
 class Damaged:
-    """Where the recording stops being readable (one line, naming the file and the byte)."""
+    """What was skipped and where (one line, naming the file and the byte)."""
 
     text: str
 
@@ -111,7 +113,7 @@ class SharedRecording:
                 slot = self._cache.get(ref.offset)
                 owner = slot is None
                 if slot is None:
-                    slot = self._cache[ref.offset] = _Slot(ref.uncompressed_size)
+                    slot = self._cache[ref.offset] = _Slot(ref.uncompressed_size + MESSAGE_COST * ref.message_count)
                     self._cached_bytes += slot.size
                     self.chunks_read += 1
                     self._trim()
@@ -181,27 +183,34 @@ def open_recording(path: Path) -> SharedRecording:
 
 
 def _sensor_messages(recording: SharedRecording, sensor: str) -> Generator[RecordedMessage | Damaged, None, None]:
-    """The messages of one sensor's channels (frame and companions) in file order, then any damage."""
+    """The messages of one sensor's channels (frame and companions) in file order; a Damaged item
+    where a damaged part was skipped (reading goes on past it)."""
     index = recording.index
     if index is None:  # no usable summary: walk the file record by record
         stream = RecordingStream(recording.path)
+        reported: RecordingDamage | None = None
         for msg in stream.messages():
+            if stream.damage is not reported:
+                reported = stream.damage
+                yield Damaged(_resumed(recording.path, reported))
             role = recording.role(msg.channel, msg.schema)
             if role.sensor == sensor and role.role in _SENSOR_ROLES:
                 yield msg
-        if stream.damage is not None:
+        if stream.damage is not reported and stream.damage is not None:
             yield Damaged(stream.damage.describe(recording.path))
+        if stream.losses.appended:
+            yield Damaged(f"{recording.path}: {stream.losses.describe()}")
         return
     wanted = {cid for cid, c in index.channels.items()
               if (r := recording.role(c, index.schemas.get(c.schema_id))).sensor == sensor and r.role in _SENSOR_ROLES}
     good, last_ns = 0, None
-    for ref in index.chunks:  # every chunk, as a walk would: damage anywhere stops the replay there
+    for ref in index.chunks:  # every chunk, as a walk would; a damaged one is skipped
         try:
             messages = recording.chunk(ref)
         except ChunkUnreadable as e:
             damage = RecordingDamage(ref.offset, index.size_bytes, f"chunk record unreadable: {e}", good, last_ns)
-            yield Damaged(damage.describe(recording.path))
-            return
+            yield Damaged(_resumed(recording.path, damage, ref.message_count))
+            continue
         for msg in messages:
             if msg.channel.id in wanted:
                 yield msg
@@ -209,29 +218,38 @@ def _sensor_messages(recording: SharedRecording, sensor: str) -> Generator[Recor
         last_ns = ref.last_ns if ref.message_count else last_ns
 
 
+def _resumed(path: Path, damage: RecordingDamage | None, lost: int | None = None) -> str:
+    assert damage is not None
+    what = f"its {lost} messages skipped" if lost is not None else "skipped"
+    return f"{damage.describe(path)}; {what}, reading goes on at the next good chunk"
+
+
 def sensor_items(
     recording: SharedRecording, sensor: str
 ) -> Generator[tuple[int, int, Payload] | Damaged, None, None]:
-    """(log time ns, sequence, payload) of one sensor in file order; a Damaged item ends it early."""
+    """(log time ns, sequence, payload) of one sensor in file order. Damage does not end it: a
+    Damaged item says what was skipped — a damaged chunk, or one frame whose time goes back or
+    jumps beyond the sane gap (``Timeline``), or whose payload does not decode — and reading goes on."""
     assembler = PayloadAssembler()
-    last_ns: int | None = None
-    count = 0
+    timeline = Timeline(f"{recording.path}: {sensor}")
     with contextlib.closing(_sensor_messages(recording, sensor)) as messages:
         for msg in messages:
             if isinstance(msg, Damaged):
                 yield msg
-                return
+                continue
             role = recording.role(msg.channel, msg.schema)
+            where = f"{recording.path}: frame on {msg.channel.topic!r} in the record at byte {msg.offset}"
+            if role.role == "frame":
+                problem = timeline.flag(msg.log_time_ns)
+                if problem is not None:
+                    yield Damaged(f"{where} skipped: {problem}")
+                    continue
             try:
                 payload = assembler.feed(role, msg.channel, msg.schema, msg.sequence, msg.log_time_ns, msg.data)
             except CodecError as e:
-                kept = f"the last good frame at t={last_ns / 1e9:.3f} s" if last_ns is not None else "no frame before it"
-                yield Damaged(f"{recording.path}: message on {msg.channel.topic!r} in the record at byte {msg.offset} "
-                              f"cannot be decoded ({e}); {count} frames kept, {kept}")
-                return
+                yield Damaged(f"{where} skipped: it cannot be decoded ({e})")
+                continue
             if payload is not None:
-                last_ns = msg.log_time_ns
-                count += 1
                 yield msg.log_time_ns, msg.sequence, payload
 
 
@@ -240,16 +258,18 @@ def iter_payloads(
 ) -> Iterator[tuple[int, int, Payload]]:
     """(log time ns, sequence, payload) of one sensor channel, in file order.
 
-    Stops at the first damage (structural or an undecodable message) and calls ``on_damage`` once
-    with a one-line description.
+    Damaged parts are skipped (see :func:`sensor_items`); ``on_damage`` is called once, with the
+    first one's one-line description.
     """
     recording = open_recording(Path(path))
+    warned = False
     try:
         for item in sensor_items(recording, channel):
             if isinstance(item, Damaged):
-                if on_damage is not None:
+                if on_damage is not None and not warned:
                     on_damage(item.text)
-                return
+                warned = True
+                continue
             yield item
     finally:
         recording.release()
@@ -285,7 +305,7 @@ FeedItem = tuple[int, int, Payload] | Damaged | _Marker
 class SensorFeed:
     """:func:`sensor_items` of one sensor, decoded ahead in a thread, at most ``lookahead`` items.
 
-    ``get()`` returns the items in order: frames, a Damaged item (then PASS_END or END), PASS_END
+    ``get()`` returns the items in order: frames (with Damaged items where parts were skipped), PASS_END
     between passes when looping (only after a pass that had frames), END last. An error in the
     thread is raised by ``get()``. ``stop()`` ends the thread; it is idempotent.
     """

@@ -79,3 +79,8 @@ DURATION_MAX_S = 366 * 24 * 3600.0  # a run's --duration / duration_s: installat
 SEED_MAX = 2**32 - 1  # numpy's legacy seeding accepts 0 … 2^32 − 1; negative seeds are refused
 SENSORS_MAX = 64  # sensors in one config: each has a thread and frame queues; real rigs have < 8
 UNIT_VALUE_MAX_CHARS = 4095  # one value in a generated systemd unit: PATH_MAX − 1 (systemd's lines allow 1 MiB)
+
+# Records in one MCAP chunk, each read into a Python object of ~200 bytes: jostle's 512 KiB chunks
+# hold < 6,000 (pad samples are the smallest messages); 250,000 is ~50 MB of objects. A 22 KB file
+# whose one chunk held 2 million empty messages ran out of 512 MB.
+CHUNK_RECORDS_MAX = 250_000
