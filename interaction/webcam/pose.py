@@ -121,7 +121,8 @@ class Keypoints:
     ``uv`` (39, 2) image pixels: the 33 of :data:`KEYPOINT_NAMES` then the model's 6 auxiliary
     points; ``z`` (39,) depth relative to the hips, in the same pixel scale (smaller = nearer);
     ``visibility`` and ``presence`` (39,) in [0, 1]; ``score`` the model's confidence that a person
-    is in the crop at all; ``crop`` the region it looked at.
+    is in the crop at all; ``crop`` the region it looked at; ``t`` the time (seconds) of the frame
+    they were computed from, when known.
     """
 
     uv: np.ndarray
@@ -130,6 +131,7 @@ class Keypoints:
     presence: np.ndarray
     score: float
     crop: PoseCrop
+    t: float | None = None
 
     def point(self, name: str) -> tuple[float, float]:
         i = KEYPOINT_NAMES.index(name)
