@@ -71,6 +71,7 @@ class PoseWorker:
         self._results: list[PoseResult] = []
         self._error: BaseException | None = None
         self._forget_all = False
+        self._busy = False  # the thread is looking at a frame
         self._looked: dict[int, float] = {}  # person → time of the last frame they were looked at in
         self.frames_dropped = 0  # frames replaced by a newer one before the worker started them
         self.frames_started = 0
@@ -104,7 +105,7 @@ class PoseWorker:
             if self._pending is not None:
                 self.frames_dropped += 1
             self._pending = (t, bgr, tuple(people))
-            self._wake.notify()
+            self._wake.notify_all()  # the thread, and anyone in wait_idle
 
     def take(self) -> list[PoseResult]:
         """The results that arrived since the last call, oldest first."""
@@ -114,6 +115,17 @@ class PoseWorker:
         if error is not None:
             raise RuntimeError(f"pose worker: {error}") from error
         return out
+
+    def wait_idle(self, timeout: float) -> bool:
+        """Wait until no frame waits and none is being looked at (True), or ``timeout`` seconds (False)."""
+        deadline = time.monotonic() + timeout
+        with self._wake:
+            while self._pending is not None or self._busy:
+                left = deadline - time.monotonic()
+                if left <= 0 or not self.running:
+                    return False
+                self._wake.wait(min(left, 0.05))
+        return True
 
     def reset(self) -> None:
         """Forget the people and drop the waiting frame and results (the camera changed)."""
@@ -146,6 +158,8 @@ class PoseWorker:
     def _loop(self) -> None:
         while True:
             with self._wake:
+                self._busy = False
+                self._wake.notify_all()
                 while self._pending is None and not self._stopping.is_set():
                     self._wake.wait()
                 if self._stopping.is_set():
@@ -153,6 +167,7 @@ class PoseWorker:
                 assert self._pending is not None
                 t, bgr, people = self._pending
                 self._pending = None
+                self._busy = True
                 forget_all, self._forget_all = self._forget_all, False
             try:
                 self._one_frame(t, bgr, people, forget_all)

@@ -1,0 +1,170 @@
+"""The pose worker on real people: two signers of the ASL clips (fixtures/signers, CC BY 4.0; cut
+out by the segmentation model) side by side, and one on the empty room of another real clip. The
+worker attaches keypoints to the right people with their frame's time, drops frames it had no time
+for instead of queueing them, stops when the observer closes, and inline (``pose_sync``) gives the
+keypoints the tracker gives when called directly. Skipped only if the model files cannot be had."""
+
+from __future__ import annotations
+
+import threading
+from functools import cache
+from pathlib import Path
+
+import cv2
+import numpy as np
+from pose_fixtures import model_dir, pose_model
+
+from interaction.webcam import WebcamObserver, WebcamObserverConfig
+from interaction.webcam.calibration import Calibration
+from interaction.webcam.pose import PoseModel, PoseTracker
+from interaction.webcam.pose_worker import PosePerson, PoseResult, PoseWorker
+from sensors.base import ColorImage, Frame
+
+SIGNERS = Path(__file__).parent / "fixtures" / "signers"
+FRAMES = (0, 5, 10, 15, 20, 25, 30, 35)  # the fixture's frames of each clip, 30 fps
+W, H = 320, 240
+
+
+def image(name: str) -> np.ndarray:
+    img = cv2.imread(str(SIGNERS / f"{name}.jpg"), cv2.IMREAD_COLOR)
+    assert img is not None, f"missing fixture {name}.jpg"
+    return img
+
+
+@cache
+def signer(clip: str, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Frame ``k`` of a clip and its person's outline (N, 2) pixels, from the segmentation model."""
+    img = image(f"{clip}-{k:02d}")
+    mask = (pose_model().person_mask(img) > 0.5).astype(np.uint8)
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    outline = max(contours, key=cv2.contourArea).reshape(-1, 2).astype(np.float64)
+    return img, outline
+
+
+def side_by_side(k: int) -> tuple[np.ndarray, list[PosePerson]]:
+    """Signer of walk.mkv on the left (person 1), of help.mkv on the right (person 2)."""
+    (left, lo), (right, ro) = signer("walk", k), signer("help", k)
+    return np.hstack([left, right]), [PosePerson(1, lo), PosePerson(2, ro + [W, 0])]
+
+
+def worker(threaded: bool) -> PoseWorker:
+    return PoseWorker(PoseTracker(PoseModel.from_dir(model_dir())), threaded=threaded)
+
+
+def by_person(results: list[PoseResult]) -> dict[int, PoseResult]:
+    return {r.person: r for r in results}
+
+
+def test_the_worker_attaches_keypoints_to_the_right_people_with_their_frame_time() -> None:
+    img, people = side_by_side(0)
+    live, inline = worker(threaded=True), worker(threaded=False)
+    try:
+        live.submit(0.5, img, people)
+        assert live.wait_idle(20.0)
+        got = by_person(live.take())
+    finally:
+        live.close()
+    inline.submit(0.5, img, people)
+    want = by_person(inline.take())
+    assert set(got) == set(want) == {1, 2}
+    for pid, side in ((1, (0, W)), (2, (W, 2 * W))):
+        kp = got[pid].keypoints
+        assert kp is not None and kp.score > 0.5 and kp.t == got[pid].t == 0.5
+        for name in ("nose", "left_shoulder", "right_shoulder"):
+            u, v = kp.point(name)
+            assert side[0] <= u < side[1] and 0 <= v < H, (pid, name, u, v)
+        # the same model on the same crop in another thread: the same numbers (one process, one machine)
+        other = want[pid].keypoints
+        assert other is not None and np.array_equal(kp.uv, other.uv)
+
+
+def test_frames_it_has_no_time_for_are_dropped_not_queued() -> None:
+    live = worker(threaded=True)
+    try:
+        submitted = 30
+        for i in range(submitted):  # far faster than two people a frame can be looked at
+            img, people = side_by_side(FRAMES[i % len(FRAMES)])
+            live.submit(i / 30, img, people)
+        assert live.wait_idle(30.0)
+        results = live.take()
+    finally:
+        live.close()
+    assert live.frames_started + live.frames_dropped == submitted
+    assert live.frames_dropped >= submitted // 2
+    times = [r.t for r in results]
+    assert times == sorted(times)
+    assert times[-1] == (submitted - 1) / 30  # the newest frame is always looked at
+    assert live.runs == len(results) < 2 * submitted
+
+
+def test_inline_gives_the_keypoints_of_the_tracker_called_directly() -> None:
+    inline, direct = worker(threaded=False), PoseTracker(PoseModel.from_dir(model_dir()))
+    for i, k in enumerate(FRAMES[:4]):
+        img, people = side_by_side(k)
+        inline.submit(i / 6, img, people)
+        got = by_person(inline.take())
+        for p in people:
+            want = direct.track(img, p.person, p.outline)
+            kp = got[p.person].keypoints
+            assert want is not None and kp is not None
+            assert np.array_equal(kp.uv, want.uv) and kp.score == want.score and kp.t == i / 6
+
+
+def observer(sync: bool) -> WebcamObserver:
+    uv = np.array([[0, 0], [W, 0], [W, H], [0, H]], dtype=np.float64)
+    xz = np.array([[-1.0, 1.5], [1.0, 1.5], [1.0, 0.0], [-1.0, 0.0]])
+    cal = Calibration.from_correspondences(uv, xz, plane_y=0.0, half_depth=0.5, image_size=(W, H))
+    cfg = WebcamObserverConfig(learn_frames=2, pose=True, pose_sync=sync, pose_model_dir=str(model_dir()))
+    return WebcamObserver(cfg, cal)
+
+
+def on_the_room(k: int) -> np.ndarray:
+    """The signer of walk.mkv, cut out, standing in the empty room of one-by-one-person-detection.mp4."""
+    img = image(f"walk-{k:02d}")
+    mask = pose_model().person_mask(img) > 0.5
+    out = image("room")
+    out[mask] = img[mask]
+    return out
+
+
+def feed(obs: WebcamObserver, rounds: int = 2) -> list[tuple[float, object]]:
+    out: list[tuple[float, object]] = []
+    for i in range(2):
+        obs.observe(Frame("webcam", i / 30, i, ColorImage(image("room"))))
+    for i in range(rounds * len(FRAMES)):
+        t, k = (i + 2) / 6, FRAMES[i % len(FRAMES)]  # every 5th frame of a 30 fps clip
+        out.append((t, obs.observe(Frame("webcam", t, i + 2, ColorImage(on_the_room(k))))))
+        kps = obs.keypoints
+        assert all(kp.t is not None and kp.t <= t for kp in kps.values())
+        if obs.pose_worker is not None and obs.pose_worker.threaded:
+            assert obs.pose_worker.wait_idle(20.0)  # this test is about attaching, not about speed
+    return out
+
+
+def test_the_observer_attaches_the_workers_keypoints_and_stops_it_on_close() -> None:
+    obs = observer(sync=False)
+    worker_thread = [t for t in threading.enumerate() if t.name == "jostle-pose" and t.is_alive()]
+    assert obs.pose_worker is not None and obs.pose_worker.running and worker_thread
+    try:
+        seen = feed(obs)
+    finally:
+        obs.close()
+    assert not obs.pose_worker.running
+    assert not any(t.is_alive() for t in worker_thread)
+    updates = obs.pose_updates
+    assert len(updates) == 1 and next(iter(updates.values())) >= len(seen) - 2
+    (pid,) = updates
+    # keypoints looked at in frame i arrive at frame i + 1: their limbs are there from then on
+    hands = [ob for _, ob in seen if any(c.part.endswith("hand") for c in ob.contactors)]  # type: ignore[attr-defined]
+    assert len(hands) >= len(seen) // 2
+    assert obs.keypoints[pid].t == seen[-2][0]
+
+
+def test_inline_observers_give_the_same_contactors_twice() -> None:
+    first, second = observer(sync=True), observer(sync=True)
+    a, b = feed(first, rounds=1), feed(second, rounds=1)
+    assert first.pose_worker is not None and not first.pose_worker.threaded
+    assert [ob for _, ob in a] == [ob for _, ob in b]
+    assert any(c.part.endswith("hand") for _, ob in a for c in ob.contactors)  # type: ignore[attr-defined]
+    pid = next(iter(first.pose_updates))
+    assert first.pose_updates[pid] == len(a) and first.keypoints[pid].t == a[-1][0]
