@@ -159,7 +159,7 @@ def run(args: argparse.Namespace) -> dict[str, object]:
         raise ValueError(f"--scenes: {','.join(bad) or 'nothing'} is not one of {', '.join(SCENES)}")
     if not (0.2 <= args.seconds <= 600):
         raise ValueError(f"--seconds: expected 0.2 to 600, got {args.seconds}")
-    media, cache = _media(args), {}
+    media, cache = _media(args), dict[str, Any]()
     out: dict[str, object] = {}
     for name in names:
         frames, room, fps = scene(name, media, cache)
