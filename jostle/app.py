@@ -167,6 +167,8 @@ class App:
             self._loop(sensors, observers, world, renderer, keyframes, video)
         finally:
             self.operations.close(self.summary.stopped_because)
+            for guard in self.observer_guards.values():
+                guard.close()
             for s in sensors.values():
                 s.close()
             if self.session_recorder is not None:

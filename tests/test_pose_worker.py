@@ -168,3 +168,29 @@ def test_inline_observers_give_the_same_contactors_twice() -> None:
     assert any(c.part.endswith("hand") for _, ob in a for c in ob.contactors)  # type: ignore[attr-defined]
     pid = next(iter(first.pose_updates))
     assert first.pose_updates[pid] == len(a) and first.keypoints[pid].t == a[-1][0]
+
+
+def test_the_app_guard_closes_a_crashed_webcam_observer_and_its_own_at_the_end() -> None:
+    from jostle.observer_guard import ObserverGuard
+    from sensors.base import DepthImage
+    from sensors.clock import SimClock
+
+    built: list[WebcamObserver] = []
+
+    def build() -> WebcamObserver:
+        built.append(observer(sync=False))
+        return built[-1]
+
+    clock = SimClock()
+    guard = ObserverGuard("webcam", build, clock, first_backoff_s=1.0)
+    depth = DepthImage(np.zeros((4, 4), np.uint16), 1.0, 1.0, 2.0, 2.0)
+    guard.observe(Frame("webcam", 0.0, 0, depth))  # not a colour image: the observer raises, the guard drops it
+    first = built[0].pose_worker
+    assert first is not None and not first.running
+    clock.advance(2.0)
+    guard.observe(Frame("webcam", 2.0, 1, ColorImage(image("room"))))  # rebuilt after its back-off
+    assert len(built) == 2
+    second = built[1].pose_worker
+    assert second is not None and second.running
+    guard.close()  # the app does this when the run ends
+    assert not second.running and guard.health().state == "running"

@@ -355,14 +355,11 @@ class WebcamObserver:
         assert self._pose is not None
         outlines = [self._to_input_px(b.contour.astype(np.float64)) for b in blobs]
         self._pose.update(t, bgr, ids, outlines, self._cal.image_to_stage)
-        sil = self.silhouette
-        if sil is None:
-            return []
-        grow = 2 * max(1, round(self._cfg.morphology_px / self._scale)) + 1
-        accept = cv2.dilate(sil, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
+        grow = 2 * self._cfg.morphology_px + 1  # the people at work size, a little grown (not at input size: 10 ms at 1768×994)
+        accept = cv2.dilate(people, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
         out: list[Contactor] = []
         for pid in sorted(ids):
-            limbs = self._pose.limbs(pid, t, accept)
+            limbs = self._pose.limbs(pid, t, accept, self._scale)
             if not limbs:
                 continue
             uv = np.array([limb.uv for limb in limbs])

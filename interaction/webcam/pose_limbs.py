@@ -92,10 +92,11 @@ class PoseLimbs:
         self.worker.submit(t, bgr, people)
         self._attach(self.worker.take())
 
-    def limbs(self, person: int, t: float, accept: np.ndarray) -> list[LimbPoint]:
+    def limbs(self, person: int, t: float, accept: np.ndarray, scale: float = 1.0) -> list[LimbPoint]:
         """The person's hands and feet at time ``t`` (image pixels; velocities in pixels per second),
         moved on from their keypoints' frame by their velocity, only those where the uint8 mask
-        ``accept`` is not 0; none when the keypoints are older than ``max_age_s``."""
+        ``accept`` (``scale`` of its pixels per image pixel) is not 0; none when the keypoints are
+        older than ``max_age_s``."""
         entry = self._limbs.get(person)
         if entry is None or not (0.0 <= t - entry[0] <= self._max_age):
             return []
@@ -104,7 +105,7 @@ class PoseLimbs:
         out: list[LimbPoint] = []
         for limb in entry[1]:
             u, v = limb.uv[0] + age * limb.velocity[0], limb.uv[1] + age * limb.velocity[1]
-            iu, iv = round(u), round(v)
+            iu, iv = round((u + 0.5) * scale - 0.5), round((v + 0.5) * scale - 0.5)
             if 0 <= iu < w and 0 <= iv < h and accept[iv, iu] != 0:
                 out.append(LimbPoint(limb.part, (u, v), limb.velocity))
         return out

@@ -4,8 +4,9 @@ The observer hands it (:meth:`PoseWorker.submit`) each frame and the people trac
 ``threaded`` (the live default) a thread takes the newest frame (one not yet started is replaced by
 a newer one: never a queue) and runs the model on its people, least recently looked at first, then
 by rank (nearest the characters, or largest), until a newer frame waits (at least one person a
-frame), idling after each run so it uses at most ``cpu_share`` of one core. cv2.dnn releases the GIL,
-so a thread does as well as a process here (figures: docs/notes/pose-worker.md). Results
+frame), idling after each run so it uses at most ``cpu_share`` of one core, at a lower priority
+(nice +10 on Linux) so that on a busy machine the loop comes first. cv2.dnn releases the GIL, so a
+thread does as well as a process here (figures: docs/notes/pose-worker.md). Results
 (:meth:`take`) carry the time of the frame they were computed from. Without ``threaded`` every
 person is looked at inline in :meth:`submit`, in the order given: deterministic (replays, tests).
 """
@@ -15,6 +16,8 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import os
+import sys
 import threading
 import time
 from collections.abc import Sequence
@@ -29,6 +32,7 @@ __all__ = ["PosePerson", "PoseResult", "PoseWorker"]
 log = logging.getLogger("jostle.webcam")
 
 _CLOSE_TIMEOUT_S = 5.0  # a model run takes ~25 ms: the thread is gone long before this
+_NICE = 10  # the worker thread's niceness (Linux: per thread); the observer's loop keeps 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,6 +160,11 @@ class PoseWorker:
         return PoseResult(p.person, t, None if kp is None else dataclasses.replace(kp, t=t))
 
     def _loop(self) -> None:
+        if sys.platform == "linux":  # a thread is a task of its own there; elsewhere this would nice the process
+            try:
+                os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), _NICE)
+            except OSError:
+                log.debug("pose worker: cannot lower its priority", exc_info=True)
         while True:
             with self._wake:
                 self._busy = False

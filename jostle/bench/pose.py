@@ -10,7 +10,9 @@ Figures per scene: ``people`` (mean per frame), ``fps_off``, ``fps_on``, ``ratio
 ≥ 0.9), ``ratio_sync_off`` (the inline cost before the worker), ``refresh_per_person_s`` (keypoint
 sets per tracked person per wall second, flat out; its minimum over people ``…_min``) and
 ``refresh_per_person_s_live`` (the same with frames paced at the clip's rate, as from a camera;
-target ≥ 5 up to 4 people). Also ``cpus`` and ``load_average``. Notes: docs/notes/pose-worker.md.
+target ≥ 5 up to 4 people), ``loop_cpu_ms_off``/``_on`` (the loop thread's own CPU per frame: what
+the worker adds to the loop itself, whatever else runs), ``cpus``, ``load_average``. Notes:
+docs/notes/pose-worker.md.
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cpu-share", type=float, default=None, help="the worker's share of one core (default: config's)")
 
 
-def read_clip(path: Path, limit: int = 400) -> tuple[list[np.ndarray], float]:
+def read_clip(path: Path, limit: int = 90) -> tuple[list[np.ndarray], float]:
     """Up to ``limit`` BGR frames of a video (or GIF) and its frame rate (30 if it does not say)."""
     cap = cv2.VideoCapture(str(path))
     fps = cap.get(cv2.CAP_PROP_FPS)
@@ -106,7 +108,7 @@ def measure(frames: list[np.ndarray], background: np.ndarray, fps: float, second
             obs.observe(Frame("webcam", k / fps, k, ColorImage(background)))
         seen: dict[int, int] = {}
         people = n = 0
-        start = time.perf_counter()
+        start, cpu0 = time.perf_counter(), time.thread_time()
         while (elapsed := time.perf_counter() - start) < seconds:
             if paced and (wait := n / fps - elapsed) > 0:
                 time.sleep(wait)
@@ -116,13 +118,13 @@ def measure(frames: list[np.ndarray], background: np.ndarray, fps: float, second
                 seen[pid] = seen.get(pid, 0) + 1
             people += ob.people
             n += 1
-        wall = time.perf_counter() - start
+        wall, cpu = time.perf_counter() - start, time.thread_time() - cpu0
         updates = obs.pose_updates
     finally:
         obs.close()
     per_frame = wall / max(n, 1)
     rates = [updates.get(p, 0) / (f * per_frame) for p, f in seen.items() if f * per_frame >= 0.5]
-    return {"fps": n / wall, "people": people / max(n, 1),
+    return {"fps": n / wall, "people": people / max(n, 1), "loop_cpu_ms": 1000.0 * cpu / max(n, 1),
             "refresh": float(np.mean(rates)) if rates else 0.0, "refresh_min": float(min(rates, default=0.0))}
 
 
@@ -176,6 +178,9 @@ def run(args: argparse.Namespace) -> dict[str, object]:
         out[f"{name}.fps_on"] = round(fps_on, 1)
         out[f"{name}.ratio_on_off"] = round(fps_on / fps_off, 3)
         out[f"{name}.ratio_sync_off"] = round(sync["fps"] / fps_off, 3)
+        cpu_off, cpu_on = (float(np.mean([r["loop_cpu_ms"] for r in rs])) for rs in (off[1:], on))
+        out[f"{name}.loop_cpu_ms_off"] = round(cpu_off, 2)
+        out[f"{name}.loop_cpu_ms_on"] = round(cpu_on, 2)
         out[f"{name}.refresh_per_person_s"] = round(float(np.mean([r["refresh"] for r in on])), 2)
         out[f"{name}.refresh_per_person_s_min"] = round(min(r["refresh_min"] for r in on), 2)
         out[f"{name}.refresh_per_person_s_live"] = round(live["refresh"], 2)
