@@ -36,7 +36,7 @@ _TILE = (320, 240)
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--media", type=Path, default=None, metavar="DIR",
-                        help="the shared media folder (default: ../shared/media beside the checkout)")
+                        help="the shared media folder (default: $JOSTLE_MEDIA, else ../shared/media beside the checkout)")
     parser.add_argument("--scenes", default=",".join(SCENES), help=f"comma-separated, of {', '.join(SCENES)}")
     parser.add_argument("--seconds", type=float, default=3.0, help="wall seconds per run (default 3)")
     parser.add_argument("--cpu-share", type=float, default=None, help="the worker's share of one core (default: config's)")
@@ -129,7 +129,9 @@ def measure(frames: list[np.ndarray], background: np.ndarray, fps: float, second
 
 
 def _media(args: argparse.Namespace) -> Path:
-    media = args.media if args.media is not None else Path(__file__).resolve().parents[2].parent / "shared" / "media"
+    env = os.environ.get("JOSTLE_MEDIA", "").strip()
+    beside = Path(__file__).resolve().parents[2].parent / "shared" / "media"
+    media = args.media if args.media is not None else Path(env) if env else beside
     if not (media / "video").is_dir():
         raise ValueError(f"--media: {media} has no video/ folder (give the shared media folder)")
     return media
