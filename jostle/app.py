@@ -126,7 +126,8 @@ class App:
         for entry in cfg.sensors:
             sensors[entry.name] = SENSOR_TYPES[entry.type].load(entry.config, entry.name, self.clock)
         for ob in cfg.observers:
-            guard = ObserverGuard(ob.name, _observer_builder(ob), self.clock)  # a crash: logged, rebuilt later
+            inline = isinstance(self.clock, SimClock)  # simulated time: pose inline, the same trace every time
+            guard = ObserverGuard(ob.name, _observer_builder(ob, inline), self.clock)  # a crash: logged, rebuilt later
             self.observer_guards[ob.name] = guard
             observers[ob.name] = (ob.sensor, guard)
         if cfg.record.enabled:
@@ -328,9 +329,14 @@ def _forget_sensor(name: str, observers: dict[str, tuple[str, Observer]], latest
             silhouettes.pop(ob_name, None)
 
 
-def _observer_builder(ob: ObserverEntry) -> Callable[[], Observer]:
-    """Builds the observer of ``ob`` afresh from its config (at start, and after a crash)."""
-    return lambda: observer_types()[ob.type].build(ob.config, ob.calibration, ob.sensor)
+def _observer_builder(ob: ObserverEntry, inline: bool = False) -> Callable[[], Observer]:
+    """Builds the observer of ``ob`` afresh from its config (at start, and after a crash); ``inline``
+    runs work an observer would do beside the loop in it (the webcam's ``pose_sync``): deterministic."""
+    config = ob.config
+    if inline and dataclasses.is_dataclass(config) and not isinstance(config, type) \
+            and any(f.name == "pose_sync" for f in dataclasses.fields(config)):
+        config = dataclasses.replace(config, pose_sync=True)
+    return lambda: observer_types()[ob.type].build(config, ob.calibration, ob.sensor)
 
 
 def _is_replay(config: object) -> bool:

@@ -194,3 +194,22 @@ def test_the_app_guard_closes_a_crashed_webcam_observer_and_its_own_at_the_end()
     assert second is not None and second.running
     guard.close()  # the app does this when the run ends
     assert not second.running and guard.health().state == "running"
+
+
+def test_on_simulated_time_the_app_runs_pose_inline(tmp_path: Path) -> None:
+    from jostle.app import _observer_builder
+    from jostle.config import ObserverEntry
+
+    cal = tmp_path / "webcam.calibration.toml"
+    observer(sync=True).calibration.save(cal)
+    cfg = WebcamObserverConfig(pose=True, pose_model_dir=str(model_dir()))
+    entry = ObserverEntry("webcam", "webcam", "webcam", cal, cfg)
+    built = [_observer_builder(entry, inline)() for inline in (True, False)]
+    try:
+        workers = [b.pose_worker for b in built if isinstance(b, WebcamObserver)]
+        assert len(workers) == 2 and workers[0] is not None and workers[1] is not None
+        assert not workers[0].threaded and workers[1].threaded  # replays inline; live beside the loop
+    finally:
+        for b in built:
+            if isinstance(b, WebcamObserver):
+                b.close()
