@@ -12,6 +12,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 from pose_fixtures import model_dir, pose_model
 
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
@@ -245,3 +246,25 @@ def test_limb_velocities_are_over_the_keypoints_own_frame_times() -> None:
     assert limbs.worker.frames_dropped >= 1 and len(velocities) >= 10
     vu, vv = np.median(np.array(velocities), axis=0)
     assert abs(vu - 120.0) < 30.0 and abs(vv) < 30.0, (vu, vv)  # keypoints jitter a few px a frame
+
+
+def test_who_is_looked_at_first() -> None:
+    from interaction.webcam.pose_limbs import PoseLimbs
+    from interaction.webcam.pose_worker import looking_order
+
+    box = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 40.0], [0.0, 40.0]])
+    near, far, new = PosePerson(1, box, rank=0.5), PosePerson(2, box, rank=3.0), PosePerson(3, box, rank=9.0)
+    assert [p.person for p in looking_order([far, near, new], {})] == [1, 2, 3]  # by rank
+    # the one never looked at, then the one looked at longest ago, whatever their rank
+    assert [p.person for p in looking_order([far, near, new], {1: 0.2, 2: 0.1})] == [3, 2, 1]
+    # the observer's ranks: without characters the larger outline first; with them the nearer
+    limbs = PoseLimbs(PoseWorker(PoseTracker(pose_model()), threaded=False), PoseTracker(pose_model()), 0.3)
+    small, big = box, np.array([[100.0, 0.0], [130.0, 0.0], [130.0, 90.0], [100.0, 90.0]])
+    assert [p.rank for p in limbs.people([1, 2], [small, big])] == [-400.0, -2700.0]
+    to_stage = lambda uv: np.column_stack([uv[:, 0] / 100.0, np.zeros(len(uv)), np.zeros(len(uv))])  # noqa: E731
+    limbs.focus_on(np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]))  # characters at x = 0 and 2 m
+    ranked = limbs.people([2, 1], [big, small], to_stage)  # given in any order: by id
+    assert [p.person for p in ranked] == [1, 2]
+    assert [p.rank for p in ranked] == pytest.approx([0.05, 0.85])  # box middles at x = 0.05 and 1.15 m
+    limbs.focus_on(None)
+    assert [p.rank for p in limbs.people([1, 2], [small, big], to_stage)] == [-400.0, -2700.0]

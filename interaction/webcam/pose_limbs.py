@@ -78,8 +78,15 @@ class PoseLimbs:
     def update(self, t: float, bgr: np.ndarray, ids: Sequence[int], outlines: Sequence[np.ndarray],
                to_stage: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
         """This frame's people (ids and outlines (N, 2) in the frame's pixels; everyone else is
-        forgotten) to the worker, ranked (``to_stage`` maps pixels to stage metres for the focus), and
-        whatever it has found since onto the people."""
+        forgotten) to the worker, ranked (:meth:`people`), and whatever it has found since onto them."""
+        self.forget(set(ids))
+        self.worker.submit(t, bgr, self.people(ids, outlines, to_stage))
+        self._attach(self.worker.take())
+
+    def people(self, ids: Sequence[int], outlines: Sequence[np.ndarray],
+               to_stage: Callable[[np.ndarray], np.ndarray] | None = None) -> list[PosePerson]:
+        """The people by id, ranked: metres on the floor from their box's middle (``to_stage``: pixels
+        → stage metres) to the nearest focus point, or without focus minus their box's area."""
         people: list[PosePerson] = []
         for pid, outline in sorted(zip(ids, outlines, strict=True), key=lambda p: p[0]):
             lo, hi = outline.min(axis=0), outline.max(axis=0)
@@ -88,9 +95,7 @@ class PoseLimbs:
                 at = to_stage(0.5 * (lo + hi).reshape(1, 2))[0]
                 rank = float(np.hypot(self._focus[:, 0] - at[0], self._focus[:, 1] - at[1]).min())
             people.append(PosePerson(pid, outline, rank))
-        self.forget(set(ids))
-        self.worker.submit(t, bgr, people)
-        self._attach(self.worker.take())
+        return people
 
     def limbs(self, person: int, t: float, accept: np.ndarray, scale: float = 1.0) -> list[LimbPoint]:
         """The person's hands and feet at time ``t`` (image pixels; velocities in pixels per second),

@@ -27,7 +27,7 @@ import numpy as np
 
 from interaction.webcam.pose import Keypoints, PoseTracker
 
-__all__ = ["PosePerson", "PoseResult", "PoseWorker"]
+__all__ = ["PosePerson", "PoseResult", "PoseWorker", "looking_order"]
 
 log = logging.getLogger("jostle.webcam")
 
@@ -193,8 +193,7 @@ class PoseWorker:
         self._tracker.forget(keep)
         self._looked = {k: v for k, v in self._looked.items() if k in keep}
         self.frames_started += 1
-        order = sorted(people, key=lambda p: (self._looked.get(p.person, -math.inf), p.rank, p.person))
-        for i, p in enumerate(order):
+        for i, p in enumerate(looking_order(people, self._looked)):
             if i > 0 and (self._pending is not None or self._stopping.is_set()):
                 return  # a newer frame waits: look at the people there
             start = time.perf_counter()
@@ -206,3 +205,9 @@ class PoseWorker:
                 self._results.append(result)
             if self._cpu_share < 1.0 and self._stopping.wait(cost * (1.0 / self._cpu_share - 1.0)):
                 return
+
+
+def looking_order(people: Sequence[PosePerson], looked: dict[int, float]) -> list[PosePerson]:
+    """Who the model looks at first: the person looked at longest ago (``looked``: person → time of
+    that frame; never looked at comes first), then the smaller rank, then the smaller id."""
+    return sorted(people, key=lambda p: (looked.get(p.person, -math.inf), p.rank, p.person))
