@@ -8,9 +8,9 @@ with ids kept by nearest centroid, points along each outline plus head and hands
 dense optical flow (in boxes around the people; :mod:`interaction.webcam.people_flow`), all mapped through
 the :class:`Calibration` onto the stage plane. A hand or foot that cannot be placed (legs hidden by a
 background like them, a person cut from others) is left out rather than reported at a wrong place.
-With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.webcam.pose`, run beside the loop by
-:mod:`interaction.webcam.pose_worker`) add hands and feet as contactors with their own velocities. Pure of hardware: feed it :class:`sensors.Frame` objects from
-anywhere.
+With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.webcam.pose`, run beside the loop
+by :mod:`interaction.webcam.pose_worker`) add hands and feet as contactors with their own velocities.
+Pure of hardware: feed it :class:`sensors.Frame` objects from anywhere.
 
 A frame allocates no image-sized arrays but the one it hands out (the people's mask) and the flow DIS
 returns: the work arrays are kept from frame to frame (why: docs/notes/webcam.md).
@@ -355,7 +355,7 @@ class WebcamObserver:
         assert self._pose is not None
         outlines = [self._to_input_px(b.contour.astype(np.float64)) for b in blobs]
         self._pose.update(t, bgr, ids, outlines, self._cal.image_to_stage)
-        grow = 2 * self._cfg.morphology_px + 1  # the people at work size, a little grown (not at input size: 10 ms at 1768×994)
+        grow = 2 * self._cfg.morphology_px + 1  # the people a little grown, at work size (at 1768×994: 10 ms)
         accept = cv2.dilate(people, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
         out: list[Contactor] = []
         for pid in sorted(ids):
