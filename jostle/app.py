@@ -13,19 +13,27 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from interaction.fusion import SensorFusion
-from interaction.observers import Observer, observer_types
+from interaction.observers import Observer
 from interaction.types import BodyObservation, Impulse
 from jostle.calibration_check import calibration_for
-from jostle.config import JostleConfig, ObserverEntry
+from jostle.config import JostleConfig
 from jostle.errors import RunFailed
 from jostle.observer_guard import ObserverGuard
 from jostle.operations import Operations
 from jostle.progress import Progress
+from jostle.run_setup import (
+    RunOptions,
+    expected_duration,
+    observer_builder,
+    place_characters,
+    played_file,
+    plays_a_file,
+)
 from jostle.session_recording import SessionRecorder
 from jostle.summary import RunSummary, SnapshotTally
 from jostle.terrain_wiring import TerrainWiring, attach_terrain
@@ -42,62 +50,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("jostle")
 
-Mode = Literal["headless", "window", "kiosk"]
-Speed = Literal["realtime", "max"]
-
-
-@dataclass(frozen=True)
-class RunOptions:
-    mode: Mode = "headless"
-    out_dir: Path | None = None
-    seed: int | None = None
-    speed: Speed = "max"
-    duration_s: float | None = None  # overrides the config's [run] duration_s
-    video: bool = True
-    progress: bool = True
-
-
-def place_characters(config: JostleConfig, world: World, seed: int) -> int:
-    """Spread the configured characters over the stage, deterministically from the seed."""
-    rng = np.random.default_rng([seed, 7])
-    w = config.world
-    total = sum(g.count for g in config.characters)
-    n = 0
-    for group in config.characters:
-        for _ in range(group.count):
-            frac = (n + 0.5) / max(total, 1)
-            x = w.x_min + 0.5 + frac * (w.x_max - w.x_min - 1.0) + rng.uniform(-0.2, 0.2)
-            y = rng.uniform(w.y_min * 0.5, w.y_max * 0.5)
-            heading = float(rng.uniform(-np.pi, np.pi))
-            world.add_character(group.spec, (float(x), float(y)), heading, intent=group.intent)
-            n += 1
-    return n
-
-
-def expected_duration(config: JostleConfig, options: RunOptions) -> float | None:
-    """Seconds of simulated time the run will cover, when it can be known in advance."""
-    if options.duration_s:
-        return options.duration_s
-    if config.run.duration_s:
-        return config.run.duration_s
-    from sensors.recording.info import describe_recording
-    from sensors.recording.replay import ReplayConfig
-
-    longest = 0.0
-    for entry in config.sensors:
-        if isinstance(entry.config, ReplayConfig):
-            longest = max(longest, describe_recording(entry.config.path).duration)
-        elif (video := _video_file(entry.config)) is not None:
-            from sensors.webcam.driver import video_duration
-
-            if (seconds := video_duration(video)) is None:
-                return None
-            longest = max(longest, seconds)
-        else:
-            return None  # a live sensor: runs until stopped
-    return longest + config.run.tail_s
-
-
 class App:
     """Owns every part of one run; ``run()`` drives them and returns what happened."""
 
@@ -105,7 +57,7 @@ class App:
         self.config = config
         self.options = options
         self.seed = config.run.seed if options.seed is None else options.seed
-        live = any(not _plays_a_file(e.config) for e in config.sensors)  # recordings and video files: sim time
+        live = any(not plays_a_file(e.config) for e in config.sensors)  # recordings and video files: sim time
         if clock is None:
             clock = WallClock() if (live or options.speed == "realtime") else SimClock()
         self.clock = clock
@@ -137,7 +89,7 @@ class App:
             sensors[entry.name] = SENSOR_TYPES[entry.type].load(entry.config, entry.name, self.clock)
         if cfg.record.enabled:
             self.session_recorder = SessionRecorder(cfg.record, metadata={"config": str(cfg.path)})
-        recordings = [str(_played_file(e.config)) for e in cfg.sensors if _plays_a_file(e.config)]
+        recordings = [str(played_file(e.config)) for e in cfg.sensors if plays_a_file(e.config)]
         self.summary.recording = ", ".join(recordings) if recordings else None
 
         keyframes = self._keyframe_sets(KeyframeSet)
@@ -150,7 +102,8 @@ class App:
                 s.open()
             for ob in cfg.observers:  # a crash: logged, the observer rebuilt later (jostle.observer_guard)
                 calibration = calibration_for(ob, sensors[ob.sensor])
-                guard = ObserverGuard(ob.name, _observer_builder(ob, calibration), self.clock)
+                inline = isinstance(self.clock, SimClock)  # simulated time: pose inline, the same trace every time
+                guard = ObserverGuard(ob.name, observer_builder(ob, calibration, inline), self.clock)
                 self.observer_guards[ob.name] = guard
                 observers[ob.name] = (ob.sensor, guard)
             self.summary.characters = place_characters(cfg, world, self.seed)
@@ -178,6 +131,8 @@ class App:
             self._loop(sensors, observers, world, renderer, keyframes, video)
         finally:
             self.operations.close(self.summary.stopped_because)
+            for guard in self.observer_guards.values():
+                guard.close()
             for s in sensors.values():
                 s.close()
             if self.session_recorder is not None:
@@ -361,27 +316,3 @@ def _forget_sensor(name: str, observers: dict[str, tuple[str, Observer]], latest
     for ob_name, (src, _) in observers.items():
         if src == name:
             latest.pop(ob_name, None)
-
-
-def _observer_builder(ob: ObserverEntry, calibration: object) -> Callable[[], Observer]:
-    """Builds the observer of ``ob`` afresh from its config (at start, and after a crash), with
-    ``calibration`` (its file, or one loaded and fitted to the images: jostle.calibration_check)."""
-    return lambda: observer_types()[ob.type].build(ob.config, calibration, ob.sensor)
-
-
-def _video_file(config: object) -> str | None:
-    """The video file a webcam sensor plays (on its own timeline), None for a camera or stream."""
-    from sensors.webcam.config import WebcamConfig
-
-    return config.source if isinstance(config, WebcamConfig) and config.kind == "file" else None
-
-
-def _played_file(config: object) -> str | Path | None:
-    """The file a sensor plays on its own timeline (a recording, a video file), None for a live one."""
-    from sensors.recording.replay import ReplayConfig
-
-    return config.path if isinstance(config, ReplayConfig) else _video_file(config)
-
-
-def _plays_a_file(config: object) -> bool:
-    return _played_file(config) is not None

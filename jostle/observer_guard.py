@@ -174,6 +174,7 @@ class ObserverGuard:
         else:
             self._failed_restarts += 1
         self._in_a_row += 1
+        self.close()
         self._observer = None
         delay = self._backoff()
         self._retry_at = now + delay
@@ -183,6 +184,16 @@ class ObserverGuard:
         self._seen.add(signature)
         log.error("observer %r %s (%s, %d in a row); rebuilding it in %.3g s", self.name, what,
                   self._last_error, self._in_a_row, delay, exc_info=e if first else None)
+
+    def close(self) -> None:
+        """Close the observer (one with threads, the webcam's pose worker, stops them) at the end of a
+        run; its health stays as it was."""
+        close = getattr(self._observer, "close", None)
+        if callable(close):
+            try:
+                close()
+            except Exception:
+                log.exception("observer %r: closing it failed", self.name)
 
     def _rebuild(self, now: float) -> None:
         try:

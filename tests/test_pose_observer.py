@@ -59,7 +59,8 @@ def calibration() -> Calibration:
 
 
 def observer() -> WebcamObserver:
-    cfg = WebcamObserverConfig(learn_frames=LEARN, pose=True, pose_model_dir=str(model_dir()), work_width=320)
+    cfg = WebcamObserverConfig(learn_frames=LEARN, pose=True, pose_sync=True, pose_model_dir=str(model_dir()),
+                               work_width=320)
     obs = WebcamObserver(cfg, calibration())
     assert obs.pose_active
     return obs

@@ -55,7 +55,10 @@ class WebcamObserverConfig:
     ("left_hand", "right_hand", "left_foot", "right_foot"; radius ``pose_radius_m``) with their own
     velocities, when the person's score is at least ``pose_min_score``, the keypoints' visibility at
     least ``pose_min_visibility``, and they lie on the person's silhouette. Without the model files
-    the observer says so once and runs silhouette-only.
+    the observer says so once and runs silhouette-only. The model runs beside the loop, in a thread
+    using at most ``pose_cpu_share`` of one core, on the newest frame (:mod:`interaction.webcam.pose_worker`);
+    keypoints older than ``pose_max_age_s`` place no limbs. ``pose_sync = true`` runs it inline on
+    every person every frame instead: deterministic, for replays and tests, at the model's cost.
     """
 
     work_width: int = 320
@@ -81,6 +84,9 @@ class WebcamObserverConfig:
     pose_min_score: float = 0.5
     pose_min_visibility: float = 0.5
     pose_radius_m: float = 0.1
+    pose_sync: bool = False
+    pose_cpu_share: float = 1.0
+    pose_max_age_s: float = 0.3
 
     def __post_init__(self) -> None:
         def whole(name: str, lo: int, hi: int) -> None:
@@ -119,3 +125,6 @@ class WebcamObserverConfig:
         number("pose_min_score", 0.0, 1.0)
         number("pose_min_visibility", 0.0, 1.0)
         number("pose_radius_m", 0.0, 10.0, lo_open=True)
+        _need(isinstance(self.pose_sync, bool), "pose_sync", "true or false", self.pose_sync)
+        number("pose_cpu_share", 0.0, 1.0, lo_open=True)
+        number("pose_max_age_s", 0.0, 10.0, lo_open=True)

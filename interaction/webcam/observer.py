@@ -8,9 +8,9 @@ with ids kept by nearest centroid, points along each outline plus head and hands
 dense optical flow (in boxes around the people; :mod:`interaction.webcam.people_flow`), all mapped through
 the :class:`Calibration` onto the stage plane. A hand or foot that cannot be placed (legs hidden by a
 background like them, a person cut from others) is left out rather than reported at a wrong place.
-With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.webcam.pose`) add hands and feet as
-contactors with their own velocities. Pure of hardware: feed it :class:`sensors.Frame` objects from
-anywhere.
+With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.webcam.pose`, run beside the loop
+by :mod:`interaction.webcam.pose_worker`) add hands and feet as contactors with their own velocities.
+Pure of hardware: feed it :class:`sensors.Frame` objects from anywhere.
 
 A frame allocates no image-sized arrays but the one it hands out (the people's mask) and the flow DIS
 returns: the work arrays are kept from frame to frame (why: docs/notes/webcam.md).
@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import logging
 import math
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -31,8 +30,9 @@ from interaction.types import BodyObservation, Contactor, Silhouette
 from interaction.webcam.calibration import Calibration
 from interaction.webcam.config import FlowPreset, WebcamObserverConfig
 from interaction.webcam.people_flow import joined_boxes, median_flow
-from interaction.webcam.pose import Keypoints, PoseModel, PoseModelError, PoseTracker
-from interaction.webcam.pose_models import default_model_dir, find_models
+from interaction.webcam.pose import Keypoints
+from interaction.webcam.pose_limbs import PoseLimbs
+from interaction.webcam.pose_worker import PoseWorker
 from interaction.webcam.silhouette import BackgroundModel
 from interaction.webcam.silhouette_parts import PersonBlob, feet, join_fragments, split_people
 from sensors.base import ColorImage, Frame
@@ -81,7 +81,7 @@ class WebcamObserver:
         self._mask: np.ndarray | None = None  # people at work size
         self._silhouette: np.ndarray | None = None  # people at input size, made when asked for
         self._flow_px: np.ndarray | None = None
-        self._pose = _pose_tracker(config) if config.pose else None
+        self._pose = PoseLimbs.from_config(config) if config.pose else None
 
     # ------------------------------------------------------------ read-only views
 
@@ -140,15 +140,38 @@ class WebcamObserver:
 
     @property
     def keypoints(self) -> dict[int, Keypoints]:
-        """The last frame's body keypoints per person id (empty when pose is off or no one was found)."""
+        """The newest body keypoints per person id in view (empty when pose is off or no one was found);
+        each carries the time ``t`` of the frame it was computed from (this frame's with ``pose_sync``)."""
         return self._pose.keypoints if self._pose is not None else {}
+
+    @property
+    def pose_updates(self) -> dict[int, int]:
+        """Keypoint refreshes per person id since start (or the last :meth:`relearn`): how many new
+        sets of keypoints (a person found by the model) were attached to each person."""
+        return self._pose.updates if self._pose is not None else {}
+
+    @property
+    def pose_worker(self) -> PoseWorker | None:
+        """The worker running the pose model (None when pose is off): its counts, for benches."""
+        return self._pose.worker if self._pose is not None else None
+
+    def focus_on(self, points: np.ndarray | None) -> None:
+        """Stage points (N, 3) metres, the characters: when the model cannot look at everyone each
+        frame, the people nearest them (on the floor, x and y) come first; None: the largest first."""
+        if self._pose is not None:
+            self._pose.focus_on(points)
+
+    def close(self) -> None:
+        """Stop the pose worker's thread. Idempotent; the observer is not to be used afterwards."""
+        if self._pose is not None:
+            self._pose.worker.close()
 
     def relearn(self) -> None:
         """Forget the background and the people; the next frames learn the empty stage again."""
         self._background.relearn()
         self._tracker = None
         if self._pose is not None:
-            self._pose.forget(set())
+            self._pose.reset()
         self._input_size = None
         self._mask = None
         self._silhouette = None
@@ -190,10 +213,10 @@ class WebcamObserver:
         if self._tracker is None:
             self._tracker = PeopleTracker(cfg.match_distance * math.hypot(w, h), cfg.track_memory_frames)
         ids = self._tracker.assign([b.centroid for b in blobs])  # also ages the people not seen
-        if self._pose is not None:
-            self._pose.forget(set(ids))
         seen = Silhouette(self.silhouette, self._cal)  # type: ignore[arg-type]  # (set just above)
         if not blobs:
+            if self._pose is not None:
+                self._pose.update(frame.t, bgr, [], [])  # everyone is forgotten, by the worker too
             return BodyObservation(t=frame.t, silhouette=seen)
         born = self._tracker.born
 
@@ -326,22 +349,18 @@ class WebcamObserver:
         self, bgr: np.ndarray, ids: list[int], blobs: list[Blob], people: np.ndarray, t: float, dt: float,
         born: frozenset[int],
     ) -> list[Contactor]:
-        """Hands and feet from each person's body keypoints, where they lie on the silhouette. Their
-        velocity is the optical flow at the limb, or the keypoints' smoothed motion where there is no
-        flow (a person's first frames): the flow is the better of the two (docs/notes/webcam.md)."""
+        """Hands and feet from each person's newest body keypoints, moved on by their velocity from the
+        keypoints' frame to this one, where they lie on the silhouette. Their velocity is the optical
+        flow at the limb, or the keypoints' smoothed motion where there is no flow (a person's first
+        frames): the flow is the better of the two (docs/notes/webcam.md)."""
         assert self._pose is not None
-        sil = self.silhouette
-        if sil is None:
-            return []
-        grow = 2 * max(1, round(self._cfg.morphology_px / self._scale)) + 1
-        accept = cv2.dilate(sil, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
+        outlines = [self._to_input_px(b.contour.astype(np.float64)) for b in blobs]
+        self._pose.update(t, bgr, ids, outlines, self._cal.image_to_stage)
+        grow = 2 * self._cfg.morphology_px + 1  # the people a little grown, at work size (at 1768×994: 10 ms)
+        accept = cv2.dilate(people, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
         out: list[Contactor] = []
-        for pid, blob in sorted(zip(ids, blobs, strict=True), key=lambda p: p[0]):
-            outline = self._to_input_px(blob.contour.astype(np.float64))
-            kp = self._pose.track(bgr, pid, outline)
-            if kp is None:
-                continue
-            limbs = self._pose.limbs(pid, kp, t, accept)
+        for pid in sorted(ids):
+            limbs = self._pose.limbs(pid, t, accept, self._scale)
             if not limbs:
                 continue
             uv = np.array([limb.uv for limb in limbs])
@@ -355,21 +374,6 @@ class WebcamObserver:
             for limb, p, v in zip(limbs, pos.tolist(), vel.tolist(), strict=True):
                 out.append(Contactor(pid, limb.part, (p[0], p[1], p[2]), (v[0], 0.0, v[2]), r, hd))
         return out
-
-
-def _pose_tracker(config: WebcamObserverConfig) -> PoseTracker | None:
-    """The pose model from the configured folder, or None (said once, loudly) when it cannot be had."""
-    folder = Path(config.pose_model_dir).expanduser() if config.pose_model_dir else default_model_dir()
-    if find_models(folder) is None:
-        log.warning("webcam observer: pose: no model files in %s (fetch them with `python -m "
-                    "interaction.webcam.pose_models`); running silhouette-only, without body keypoints", folder)
-        return None
-    try:
-        model = PoseModel.from_dir(folder)
-    except PoseModelError as e:
-        log.warning("webcam observer: pose: %s; running silhouette-only, without body keypoints", e)
-        return None
-    return PoseTracker(model, config.pose_min_score, config.pose_min_visibility)
 
 
 def _same_size(array: np.ndarray | None, shape: tuple[int, ...], dtype: type) -> np.ndarray:

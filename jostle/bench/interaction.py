@@ -191,7 +191,7 @@ def _score_recording(path: Path, scores: _Scores, *, pose: bool, shoe_model: boo
     homography = webcam_cam.plane_homography(0.0)  # the exact calibration `jostle synth` writes beside it
     calibration = Calibration(tuple(float(v) for v in homography.reshape(-1)), 0.0, 1.0,
                               (webcam_cam.width, webcam_cam.height))
-    webcam = WebcamObserver(WebcamObserverConfig(pose=pose), calibration)
+    webcam = WebcamObserver(WebcamObserverConfig(pose=pose, pose_sync=True), calibration)  # inline: its cost
     _settle()
     for t_ns, seq, payload in iter_payloads(path, "webcam"):
         frame = Frame("webcam", t_ns / 1e9, seq, payload)
@@ -206,6 +206,7 @@ def _score_recording(path: Path, scores: _Scores, *, pose: bool, shoe_model: boo
             scores.page_faults.append(faults)
         if not pose and not webcam.learning:
             _webcam_errors(obs, truth.get(round(frame.t * 1000)), webcam_cam, homography, scores)
+    webcam.close()
     if pose:
         return
     depth_frames = [(t_ns, seq, p) for t_ns, seq, p in iter_payloads(path, "oak") if isinstance(p, DepthImage)]

@@ -61,8 +61,9 @@ def add_run(sub: Sub) -> None:
 
 
 def _execute(config_path: Path, args: argparse.Namespace, *, override_recording: Path | None = None) -> int:
-    from jostle.app import App, RunOptions, Speed
+    from jostle.app import App
     from jostle.config import load_config
+    from jostle.run_setup import RunOptions, Speed
 
     config = load_config(config_path)
     if override_recording is not None:
