@@ -87,6 +87,9 @@ def main(argv: list[str] | None = None) -> int:
     previous_showwarning = warnings.showwarning
     warnings.showwarning = _one_line_warning
     try:
+        from jostle.cli.flags import check_flags
+
+        check_flags(args)
         result = args.func(args)
         return int(result or 0)
     except KeyboardInterrupt:
