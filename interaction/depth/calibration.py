@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from sensors.untrusted import MissingInput, UntrustedInput, load_toml, shorten
+from sensors.untrusted import MissingInput, UntrustedInput, load_toml, shorten, write_owned
 from sensors.untrusted.limits import CALIBRATION
 
 __all__ = ["DepthCalibration", "DepthCalibrationError", "FloorFit", "camera_points", "fit_floor", "calibrate_depth"]
@@ -144,7 +144,7 @@ class DepthCalibration:
         return "\n".join(lines) + "\n"
 
     def save(self, path: Path | str) -> None:
-        Path(path).write_text(self.to_toml(), encoding="utf-8")
+        write_owned(path, self.to_toml())  # atomic; a FIFO or device there is refused
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from sensors.untrusted import MissingInput, UntrustedInput, load_toml, shorten
+from sensors.untrusted import MissingInput, UntrustedInput, load_toml, shorten, write_owned
 from sensors.untrusted.limits import CALIBRATION
 
 __all__ = ["Calibration", "CalibrationError"]
@@ -214,7 +214,7 @@ class Calibration:
 
     def save(self, path: Path | str) -> None:
         """Write the TOML file (see :meth:`to_toml`)."""
-        Path(path).write_text(self.to_toml(), encoding="utf-8")
+        write_owned(path, self.to_toml())  # atomic; a FIFO or device there is refused
 
 
 # ---------------------------------------------------------------- internals

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sensors.untrusted import MissingInput, UntrustedInput, one_line, read_bytes, shorten
+from sensors.untrusted import MissingInput, UntrustedInput, one_line, read_bytes, shorten, write_owned
 from sensors.untrusted.limits import BVH
 from sim.motion import quaternion as quat
 from sim.motion.mocap import MotionFileError
@@ -284,5 +284,5 @@ def write_bvh(
         lines.append(" ".join(row))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_owned(path, "\n".join(lines) + "\n")
     return path
