@@ -27,7 +27,7 @@ from jostle.session_recording import SessionRecordConfig
 from jostle.terrain_layout import QuadrupedGroup, QuadrupedTable, TerrainSection
 from render.gl.style import Camera, Colours, Look
 from sensors.registry import SENSOR_TYPES
-from sensors.untrusted import InputLimits, UntrustedInput, finite, whole
+from sensors.untrusted import InputLimits, MissingInput, UntrustedInput, finite, whole
 from sensors.untrusted import load_toml as load_untrusted_toml
 from sensors.untrusted.limits import CHARACTER_SPEC, CONFIG_TOML, DURATION_MAX_S, SEED_MAX, SENSORS_MAX
 from sim.articulated.spec import ArticulatedSpec
@@ -123,6 +123,8 @@ def load_toml(path: Path, limits: InputLimits = CONFIG_TOML, what: str = "config
     ``sensors.untrusted``), turning every failure into a one-line ConfigError naming the file."""
     try:
         return load_untrusted_toml(path, limits, what)
+    except MissingInput:
+        raise ConfigError(f"{path}: no such {what} file") from None
     except UntrustedInput as e:
         raise ConfigError(str(e)) from None
 
