@@ -25,7 +25,7 @@ import numpy as np
 
 from render.keyframes.pose_text import format_pose
 from render.keyframes.set_file import FORMAT, KeyframeError
-from render.keyframes.set_staging import MANIFEST, StagedSet, checked_name
+from render.keyframes.set_staging import MANIFEST, StagedSet, checked_name, commit
 from render.keyframes.skeleton_pose import X, in_body_frame, standing_height, tilt_rotation, yaw_rotation
 from render.keyframes.skeletons import FIGURES, Figure
 from sensors.untrusted import UntrustedInput, one_line, parse_toml, shorten
@@ -189,4 +189,4 @@ def import_clip(source: Path, set_dir: Path, placement: Placement, *, keys: int 
     names = [f"{placement.name}_{k:02d}" for k in range(len(posed))]
     entries = [(float(x), n, "") for x, n in zip(xs, names, strict=True)]
     add_animation(staged, placement, entries, dict(zip(names, posed, strict=True)), source.name, skeleton)
-    return staged.commit()
+    return commit(staged, source)

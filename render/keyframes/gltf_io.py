@@ -31,7 +31,7 @@ import numpy as np
 from render.keyframes.clip_import import Placement, add_animation
 from render.keyframes.keyframe_set import KeyframeSet
 from render.keyframes.set_file import KeyframeError
-from render.keyframes.set_staging import MANIFEST, StagedSet, checked_name
+from render.keyframes.set_staging import MANIFEST, StagedSet, checked_name, commit
 from render.keyframes.skeletons import figure_for
 from sensors.untrusted import (
     MissingInput,
@@ -148,8 +148,11 @@ class _Buffers:
                 return base64.b64decode(payload, validate=True)
             except ValueError:
                 raise KeyframeError(f"{what}: the data: uri is not valid base64") from None
-        target = resolve_within(self.path.parent, unquote(uri), f"glTF buffer {index} uri")
-        return read_bytes(target, GLTF_BUFFER.max_bytes, "glTF buffer")
+        try:
+            target = resolve_within(self.path.parent, unquote(uri), "uri")
+            return read_bytes(target, GLTF_BUFFER.max_bytes, "glTF buffer")
+        except UntrustedInput as e:
+            raise KeyframeError(f"{what} ({shorten(uri, 80)}): {e.problem}") from None
 
 
 _WIDTH = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}
@@ -250,7 +253,7 @@ def import_gltf(path: Path, set_dir: Path) -> Path:
         done += 1
     if done == 0:
         raise KeyframeError(f"{path}: no animation carries extras.jostle; nothing to import")
-    return staged.commit()
+    return commit(staged, path)
 
 
 def _stage_animation(staged: StagedSet, anim: Any, name: str, extras: dict[str, Any], doc: Any, path: Path,

@@ -124,6 +124,14 @@ class StagedSet:
             shutil.rmtree(staging, ignore_errors=True)
 
 
+def commit(staged: StagedSet, source: Path) -> Path:
+    """``staged.commit()``, a refusal naming the imported file ``source`` as well as the set."""
+    try:
+        return staged.commit()
+    except KeyframeError as e:
+        raise KeyframeError(f"{source}: not imported, the set would not load: {e}") from None
+
+
 def _listed(manifest_text: str) -> list[str]:
     """The pose files a manifest lists (its ``poses``), [] when it lists none or is not TOML."""
     try:
