@@ -116,7 +116,7 @@ def load_pad_layout(path: Path) -> PadLayout:
     try:
         table = load_toml(Path(path), PAD_LAYOUT, "pad layout")
     except UntrustedInput as e:
-        raise ConfigError(str(e)) from None
+        raise ConfigError(f"{path}: cannot read the pad layout ({e.problem})") from None
     pads = table.pop("pad", [])
     if not isinstance(pads, list) or not pads:
         raise ConfigError(f"{path}: pad: expected one or more [[pad]] tables with x and y")
