@@ -79,3 +79,29 @@ def test_a_fifo_as_the_config_is_refused_at_once(tmp_path: Path, capsys: pytest.
     worker.join(20)
     assert not worker.is_alive(), "hung on a FIFO"
     assert f"{fifo}: is a FIFO, expected a regular file" in box["line"], box
+
+
+@pytest.mark.parametrize(("line", "said"), [
+    ("contactor_stiffness = " + "9" * 400, "world.contactor_stiffness: expected a number"),
+    ("contactor_stiffness = nan", "world.contactor_stiffness: expected a finite number, got nan"),
+    ('keyframes = "~no_such_user_here/set"', "keyframes: expected a path (string), got '~no_such_user_here/set'"),
+    ("".join(f'[sensors.s{i}]\ntype = "replay"\n' for i in range(70)), "sensors: 71 sensors, more than the 64 allowed"),
+    ("".join(f'[sensors.s{i}]\ntype = "replay"\npath = "x"\n' for i in range(10_000)), "more than the 10000 allowed"),
+])
+def test_config_values_out_of_bounds(line: str, said: str, tmp_path: Path) -> None:
+    from jostle.config import load_config
+    from jostle.errors import user_facing
+
+    config = _config(tmp_path, "seed = 1")
+    text = config.read_text(encoding="utf-8")
+    if line.startswith("[sensors."):
+        text += "\n" + line
+    else:  # the shipped key's line replaced
+        key = line.split(" = ")[0]
+        text, n = re.subn(rf"^{key} = .*$", lambda _: line, text, count=1, flags=re.M)
+        assert n == 1
+    config.write_text(text, encoding="utf-8")
+    with pytest.raises(Exception) as caught:
+        load_config(config)
+    message = user_facing(caught.value)
+    assert message is not None and "\n" not in message and said in message, message
