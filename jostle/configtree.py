@@ -163,7 +163,7 @@ def build(cls: type[T], table: Mapping[str, Any], *, source: str, key: str, base
     try:
         return cls(**kwargs)
     except ValueError as e:  # the dataclass's own checks (an UntrustedInput from finite/whole among them)
-        raise ConfigError(one_line(f"{source}: {prefix}{e}")) from None
+        raise ConfigError(one_line(f"{source}: {prefix}{e}", 1000)) from None
 
 
 def _nested_dataclass(tp: Any) -> type | None:

@@ -38,13 +38,15 @@ def user_facing(e: BaseException) -> str | None:
     from sensors.untrusted.files import refuse_os_error
 
     if isinstance(e, user_error_types()):
-        return one_line(str(e))
+        return one_line(str(e), MESSAGE_CHARS)
     if isinstance(e, OSError) and e.filename is not None and e.errno in _USER_ERRNOS:
         return one_line(str(refuse_os_error(e.filename, e)))
     if isinstance(e, FileNotFoundError | PermissionError | IsADirectoryError):
-        return one_line(str(e))
+        return one_line(str(e), MESSAGE_CHARS)
     return None
 
+
+MESSAGE_CHARS = 1000  # a user error's line is cut here (a list of known keys fits; a 10 MB value does not)
 
 # OSErrors a user causes by naming a file: missing, not allowed, a folder, a symlink loop, a bad path
 _USER_ERRNOS = frozenset({errno.ENOENT, errno.EACCES, errno.EPERM, errno.EISDIR, errno.ELOOP, errno.ENOTDIR,
