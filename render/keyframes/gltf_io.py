@@ -150,6 +150,9 @@ class _Buffers:
                 raise KeyframeError(f"{what}: the data: uri is not valid base64") from None
         try:
             target = resolve_within(self.path.parent, unquote(uri), "uri")
+        except UntrustedInput as e:
+            raise KeyframeError(f"{what}: {e.problem}") from None
+        try:
             return read_bytes(target, GLTF_BUFFER.max_bytes, "glTF buffer")
         except UntrustedInput as e:
             raise KeyframeError(f"{what} ({shorten(uri, 80)}): {e.problem}") from None

@@ -130,3 +130,21 @@ def test_a_good_import_still_commits(exported: dict[str, Any], single: dict[str,
     source.write_text(json.dumps(single), encoding="utf-8")
     grown = KeyframeSet.load(import_gltf(source, shipped))
     assert len(grown.animations) == len(KeyframeSet.load(HUMANOID / "keyframes.toml").animations) + 1
+
+
+def test_the_import_command_gives_one_line_and_exit_2(single: dict[str, Any], tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    from jostle.cli import main
+
+    doc = copy.deepcopy(single)
+    doc["buffers"][0]["uri"] = "../../../../../../etc/passwd"
+    source = tmp_path / "escape.gltf"
+    source.write_text(json.dumps(doc), encoding="utf-8")
+    set_dir = tmp_path / "set"
+    shutil.copytree(HUMANOID, set_dir)
+    before = _snapshot(set_dir)
+    code = main(["keyframes", "import", str(source), "--into", str(set_dir)])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert "escape.gltf: buffer 0: uri '../../../../../../etc/passwd': leads outside this folder" in err, err
+    assert _snapshot(set_dir) == before
