@@ -78,11 +78,13 @@ class StagedSet:
     def commit(self) -> Path:
         """Check the staged set (``KeyframeSet.load``), then write it: pose files first, the manifest
         last. Returns the manifest; on any failure the folder is left as it was and the error raised."""
-        made = [d for d in (self.set_dir, self.set_dir / "poses") if not d.exists()]
-        for d in made:
-            d.mkdir()
+        missing = [d for d in (*reversed(self.set_dir.parents), self.set_dir, self.set_dir / "poses") if not d.exists()]
+        made: list[Path] = []
         written: list[Path] = []
         try:
+            for d in missing:  # outermost first; each removed again on failure
+                d.mkdir()
+                made.append(d)
             self._check()
             order = sorted(self.changed, key=lambda rel: rel == MANIFEST)  # the manifest last
             for rel in order:

@@ -148,3 +148,19 @@ def test_the_import_command_gives_one_line_and_exit_2(single: dict[str, Any], tm
     assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
     assert "escape.gltf: buffer 0: uri '../../../../../../etc/passwd': leads outside this folder" in err, err
     assert _snapshot(set_dir) == before
+
+
+def test_a_failed_import_into_a_new_nested_folder_leaves_no_folder(single: dict[str, Any], tmp_path: Path) -> None:
+    doc = copy.deepcopy(single)
+    doc["accessors"][1]["type"] = "MAT4"
+    source = tmp_path / "broken.gltf"
+    source.write_text(json.dumps(doc), encoding="utf-8")
+    with pytest.raises(Exception) as caught:
+        import_gltf(source, tmp_path / "a" / "b" / "set")
+    assert user_facing(caught.value) is not None
+    assert not (tmp_path / "a").exists()
+    _last_family(doc := copy.deepcopy(single))  # fails only when the staged set is loaded
+    source.write_text(json.dumps(doc), encoding="utf-8")
+    with pytest.raises(Exception) as caught:
+        import_gltf(source, tmp_path / "a" / "b" / "set")
+    assert "no_such_family" in str(user_facing(caught.value)) and not (tmp_path / "a").exists()
