@@ -15,7 +15,6 @@ Paths are relative to the config file. Every error names the file, the key and w
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,26 +27,28 @@ from jostle.session_recording import SessionRecordConfig
 from jostle.terrain_layout import QuadrupedGroup, QuadrupedTable, TerrainSection
 from render.gl.style import Camera, Colours, Look
 from sensors.registry import SENSOR_TYPES
+from sensors.untrusted import InputLimits, MissingInput, UntrustedInput, finite, whole
+from sensors.untrusted import load_toml as load_untrusted_toml
+from sensors.untrusted.limits import CHARACTER_SPEC, CONFIG_TOML, DURATION_MAX_S, SEED_MAX, SENSORS_MAX
 from sim.articulated.spec import ArticulatedSpec
 from sim.config import CharacterSpec, WorldConfig
 from sim.quadruped.config import QuadrupedSpec
 
 __all__ = ["ConfigError", "JostleConfig", "load_config", "load_toml"]
 
-
+TAIL_MAX_S = 3600.0  # [run] tail_s: the seconds run on after the recordings end
 
 
 @dataclass(frozen=True)
 class RunConfig:
-    seed: int = 0
-    duration_s: float = 0.0  # 0: run until every sensor has ended (replays), then tail_s more
-    tail_s: float = 2.0
+    seed: int = 0  # 0 … 2^32 − 1 (numpy's seeding)
+    duration_s: float = 0.0  # seconds, 0 … DURATION_MAX_S; 0: until every sensor has ended, then tail_s more
+    tail_s: float = 2.0  # seconds, 0 … TAIL_MAX_S
 
     def __post_init__(self) -> None:
-        if self.duration_s < 0:
-            raise ValueError(f"duration_s: expected a number ≥ 0, got {self.duration_s}")
-        if self.tail_s < 0:
-            raise ValueError(f"tail_s: expected a number ≥ 0, got {self.tail_s}")
+        finite(self.duration_s, "duration_s", 0, DURATION_MAX_S)  # an UntrustedInput: a ValueError
+        finite(self.tail_s, "tail_s", 0, TAIL_MAX_S)
+        whole(self.seed, "seed", 0, SEED_MAX)
 
 
 @dataclass(frozen=True)
@@ -117,19 +118,15 @@ TOP_KEYS = ("run", "sensors", "observers", "world", "characters", "render", "kio
             "quadrupeds")
 
 
-def load_toml(path: Path) -> dict[str, Any]:
-    """Read a TOML file, turning every failure into a one-line ConfigError naming the file."""
+def load_toml(path: Path, limits: InputLimits = CONFIG_TOML, what: str = "config") -> dict[str, Any]:
+    """Read a TOML file within ``limits`` (a regular file, bounded in size, nesting and keys: see
+    ``sensors.untrusted``), turning every failure into a one-line ConfigError naming the file."""
     try:
-        with path.open("rb") as f:
-            return tomllib.load(f)
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: no such config file") from None
-    except IsADirectoryError:
-        raise ConfigError(f"{path}: is a folder, expected a TOML file") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path}: not valid TOML ({e})") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a text file") from None
+        return load_untrusted_toml(path, limits, what)
+    except MissingInput:
+        raise ConfigError(f"{path}: no such {what} file") from None
+    except UntrustedInput as e:
+        raise ConfigError(str(e)) from None
 
 
 def _table(doc: Mapping[str, Any], key: str, source: str) -> Mapping[str, Any]:
@@ -168,6 +165,8 @@ def load_config(path: str | Path) -> JostleConfig:
             raise ConfigError(f"{source}: {k}: unknown key; expected one of: {', '.join(TOP_KEYS)}")
 
     run = build(RunConfig, _table(doc, "run", source), source=source, key="run", base_dir=base)
+    if len(_table(doc, "sensors", source)) > SENSORS_MAX:
+        raise ConfigError(f"{source}: sensors: {len(doc['sensors'])} sensors, more than the {SENSORS_MAX} allowed")
 
     sensors: list[SensorEntry] = []
     sensor_tables = _table(doc, "sensors", source)
@@ -212,7 +211,7 @@ def load_config(path: str | Path) -> JostleConfig:
         if not isinstance(entry, Mapping):
             raise ConfigError(f"{source}: {key}: expected a table")
         group = build(_GroupTable, entry, source=source, key=key, base_dir=base)
-        spec_doc = load_toml(group.spec)
+        spec_doc = load_toml(group.spec, CHARACTER_SPEC, "character spec")
         spec: CharacterSpec | ArticulatedSpec
         if spec_doc.get("body") == "articulated":
             spec = build(ArticulatedSpec, spec_doc, source=str(group.spec), key="", base_dir=group.spec.parent)
@@ -266,6 +265,6 @@ def _terrain(doc: Mapping[str, Any], observers: list[ObserverEntry], source: str
     for i, t in enumerate(tables):
         table = build(QuadrupedTable, t, source=source, key=f"quadrupeds[{i}]", base_dir=base)
         spec = QuadrupedSpec() if table.spec == Path() else build(
-            QuadrupedSpec, load_toml(table.spec), source=str(table.spec), key="", base_dir=table.spec.parent)
+            QuadrupedSpec, load_toml(table.spec, CHARACTER_SPEC, "quadruped spec"), source=str(table.spec), key="", base_dir=table.spec.parent)
         groups.append(QuadrupedGroup(spec, table))
     return terrain, tuple(groups)

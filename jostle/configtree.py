@@ -9,11 +9,14 @@ names the file, the key and what was expected.
 from __future__ import annotations
 
 import dataclasses
+import math
 import types
 import typing
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal, TypeVar, get_args, get_origin, get_type_hints
+
+from sensors.untrusted import one_line, shorten
 
 T = TypeVar("T")
 
@@ -24,12 +27,12 @@ class ConfigError(ValueError):
 
 def _describe(value: object) -> str:
     if isinstance(value, str):
-        return repr(value)
+        return shorten(value)
     if isinstance(value, dict):
         return "a table"
     if isinstance(value, list):
         return "a list"
-    return f"{value!r} ({type(value).__name__})"
+    return f"{shorten(value)} ({type(value).__name__})"
 
 
 def _type_name(tp: Any) -> str:
@@ -87,17 +90,25 @@ def _convert(value: Any, tp: Any, base_dir: Path) -> Any:
         if isinstance(value, int) and not isinstance(value, bool):
             return value
         raise _Bad
-    if tp is float:
+    if tp is float:  # finite only: a nan or inf in a config hangs or breaks whatever reads it
         if isinstance(value, int | float) and not isinstance(value, bool):
-            return float(value)
+            try:
+                number = float(value)
+            except OverflowError:  # an integer beyond 1e308
+                raise _Bad from None
+            if math.isfinite(number):
+                return number
         raise _Bad
     if tp is str:
         if isinstance(value, str):
             return value
         raise _Bad
     if tp is Path:
-        if isinstance(value, str) and value:
-            p = Path(value).expanduser()
+        if isinstance(value, str) and value and "\0" not in value:
+            try:
+                p = Path(value).expanduser()
+            except RuntimeError:  # "~someone" with no such user
+                raise _Bad from None
             return p if p.is_absolute() else (base_dir / p)
         raise _Bad
     if origin is tuple:
@@ -143,13 +154,16 @@ def build(cls: type[T], table: Mapping[str, Any], *, source: str, key: str, base
         try:
             kwargs[name] = _convert(value, tp, base_dir)
         except _Bad:
+            expected = _type_name(tp)
+            if isinstance(value, float) and not math.isfinite(value):
+                expected = expected.replace("a number", "a finite number")
             raise ConfigError(
-                f"{source}: {prefix}{name}: expected {_type_name(tp)}, got {_describe(value)}"
+                f"{source}: {prefix}{name}: expected {expected}, got {_describe(value)}"
             ) from None
     try:
         return cls(**kwargs)
-    except ValueError as e:
-        raise ConfigError(f"{source}: {prefix}{e}") from None
+    except ValueError as e:  # the dataclass's own checks (an UntrustedInput from finite/whole among them)
+        raise ConfigError(one_line(f"{source}: {prefix}{e}", 1000)) from None
 
 
 def _nested_dataclass(tp: Any) -> type | None:

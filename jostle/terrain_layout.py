@@ -21,13 +21,14 @@ naming the file, the row and column, and what was expected.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from interaction.depth.terrain_cells import FloorGrid, TerrainObserverConfig
+from sensors.untrusted import MissingInput, UntrustedInput, load_toml
+from sensors.untrusted.limits import TERRAIN_LAYOUT
 from sim.quadruped.config import QuadrupedSpec
 
 __all__ = ["LayoutError", "QuadrupedGroup", "QuadrupedTable", "TerrainLayout", "TerrainSection", "parse_rows",
@@ -88,13 +89,11 @@ def parse_rows(rows: Sequence[object], at: Sequence[object], source: str, size: 
 def read_layout(path: Path, size: tuple[int, int], max_height: int) -> TerrainLayout:
     """A layout file (TOML with ``at`` and ``rows``)."""
     try:
-        doc: Mapping[str, Any] = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
+        doc: Mapping[str, Any] = load_toml(path, TERRAIN_LAYOUT, "layout file")
+    except MissingInput:
         raise LayoutError(f"{path}: no such layout file") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise LayoutError(f"{path}: cannot read the layout file ({e})") from None
-    except tomllib.TOMLDecodeError as e:
-        raise LayoutError(f"{path}: not valid TOML ({e})") from None
+    except UntrustedInput as e:
+        raise LayoutError(str(e)) from None
     unknown = [k for k in doc if k not in ("at", "rows")]
     if unknown:
         raise LayoutError(f"{path}: {unknown[0]}: unknown key; expected at, rows")

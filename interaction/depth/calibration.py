@@ -15,12 +15,14 @@ metres. A stereo camera's error grows with the square of the distance, so a far 
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from sensors.untrusted import MissingInput, UntrustedInput, load_toml, shorten, write_owned
+from sensors.untrusted.limits import CALIBRATION
 
 __all__ = ["DepthCalibration", "DepthCalibrationError", "FloorFit", "camera_points", "fit_floor", "calibrate_depth"]
 
@@ -29,6 +31,7 @@ class DepthCalibrationError(ValueError):
     """A depth calibration file that cannot be used, or a floor fit refused (the message says why)."""
 
 
+MAX_STAGE_M = 1000.0  # metres: a camera (translation) or floor (d) farther from the stage is a broken file
 _KEYS = ("rotation", "translation", "floor", "image_size", "floor_rms_m")
 
 
@@ -54,8 +57,12 @@ class DepthCalibration:
             raise ValueError("rotation: expected a rotation matrix (orthonormal rows, determinant +1)")
         if len(self.translation) != 3 or not all(math.isfinite(v) for v in self.translation):
             raise ValueError(f"translation: expected [x, y, z] in stage metres, got {self.translation!r}")
+        if max(abs(v) for v in self.translation) > MAX_STAGE_M:
+            raise ValueError(f"translation: expected a camera within {MAX_STAGE_M:g} m of the stage, got {self.translation!r}")
         if len(self.floor) != 4 or not all(math.isfinite(v) for v in self.floor):
             raise ValueError(f"floor: expected 4 numbers a, b, c, d, got {self.floor!r}")
+        if abs(math.hypot(*self.floor[:3]) - 1.0) > 1e-3 or abs(self.floor[3]) > MAX_STAGE_M:
+            raise ValueError(f"floor: expected a unit normal (a, b, c) and |d| ≤ {MAX_STAGE_M:g} m, got {self.floor!r}")
         if self.image_size is not None and (len(self.image_size) != 2 or min(self.image_size) < 1):
             raise ValueError(f"image_size: expected [width, height] in whole pixels, got {self.image_size!r}")
         if not (math.isfinite(self.floor_rms_m) and self.floor_rms_m >= 0):
@@ -84,11 +91,11 @@ class DepthCalibration:
     def load(cls, path: Path | str) -> DepthCalibration:
         path = Path(path)
         try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
+            data = load_toml(path, CALIBRATION, "depth calibration")
+        except MissingInput:
             raise DepthCalibrationError(f"{path}: no such file (make it with `jostle calibrate depth`)") from None
-        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
-            raise DepthCalibrationError(f"{path}: not a readable TOML file ({e})") from None
+        except UntrustedInput as e:
+            raise DepthCalibrationError(str(e)) from None
         return cls.from_dict(data, str(path))
 
     @classmethod
@@ -103,16 +110,16 @@ class DepthCalibration:
             value = data[key]
             flat = [x for row in value for x in (row if isinstance(row, list) else [row])] if isinstance(value, list) else None
             if flat is None or len(flat) != n or not all(_is_number(x) for x in flat):
-                raise DepthCalibrationError(f"{source}: {key}: expected {n} numbers, got {value!r}")
+                raise DepthCalibrationError(f"{source}: {key}: expected {n} numbers, got {shorten(value)}")
             kwargs[key] = tuple(float(x) for x in flat)
         if "image_size" in data:
             size = data["image_size"]
             if not (isinstance(size, list) and len(size) == 2 and all(type(s) is int for s in size)):
-                raise DepthCalibrationError(f"{source}: image_size: expected [width, height] in whole pixels, got {size!r}")
+                raise DepthCalibrationError(f"{source}: image_size: expected [width, height] in whole pixels, got {shorten(size)}")
             kwargs["image_size"] = (size[0], size[1])
         if "floor_rms_m" in data:
             if not _is_number(data["floor_rms_m"]):
-                raise DepthCalibrationError(f"{source}: floor_rms_m: expected a number, got {data['floor_rms_m']!r}")
+                raise DepthCalibrationError(f"{source}: floor_rms_m: expected a number, got {shorten(data['floor_rms_m'])}")
             kwargs["floor_rms_m"] = float(data["floor_rms_m"])
         try:
             return cls(**kwargs)
@@ -137,7 +144,7 @@ class DepthCalibration:
         return "\n".join(lines) + "\n"
 
     def save(self, path: Path | str) -> None:
-        Path(path).write_text(self.to_toml(), encoding="utf-8")
+        write_owned(path, self.to_toml())  # atomic; a FIFO or device there is refused
 
 
 @dataclass(frozen=True)

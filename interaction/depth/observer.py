@@ -120,6 +120,12 @@ class DepthObserver:
         if not isinstance(p, DepthImage):
             raise ValueError(f"DepthObserver: frame {frame.seq} from sensor {frame.sensor!r} carries a "
                              f"{frame.kind} payload; expected a depth image")
+        want = self._cal.image_size
+        size = (int(p.depth_mm.shape[1]), int(p.depth_mm.shape[0])) if p.depth_mm.ndim == 2 else None
+        if want is not None and size != want:  # a calibration made for another camera mode is wrong everywhere
+            raise ValueError(f"DepthObserver: frame {frame.seq} from sensor {frame.sensor!r} is "
+                             f"{'×'.join(map(str, size)) if size else 'not 2-D'}, but the calibration was made "
+                             f"for {want[0]}×{want[1]}")
         cfg = self._cfg
         pts, cell = self._stage_points(p)
         self._fine.set_frame(p)

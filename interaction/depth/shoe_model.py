@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sensors.untrusted import open_regular
+
 __all__ = ["FEATURES", "ShoeModel", "column_features", "default_model_path", "shipped_shoe_model"]
 
 log = logging.getLogger("jostle.depth")
@@ -186,7 +188,7 @@ class ShoeModel:
     def load(cls, path: Path) -> ShoeModel:
         """The model saved at ``path`` (``save``'s npz; no pickled objects are read)."""
         try:
-            with np.load(path, allow_pickle=False) as f:
+            with open_regular(path) as fh, np.load(fh, allow_pickle=False) as f:
                 arrays = {name: np.array(f[name]) for name in ("features", "corrections", "mean", "scale", "k")}
         except (OSError, KeyError, ValueError) as e:
             raise ValueError(f"{path}: not a shoe model ({e})") from e

@@ -21,12 +21,14 @@ Saved as a tiny TOML file::
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from sensors.untrusted import MissingInput, UntrustedInput, load_toml, shorten, write_owned
+from sensors.untrusted.limits import CALIBRATION
 
 __all__ = ["Calibration", "CalibrationError"]
 
@@ -156,13 +158,11 @@ class Calibration:
         """Read a calibration TOML file. Every error is one line naming the file and the key."""
         path = Path(path)
         try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
+            data = load_toml(path, CALIBRATION, "calibration")
+        except MissingInput:
             raise CalibrationError(f"{path}: no such calibration file (make one with `jostle calibrate`)") from None
-        except (OSError, UnicodeDecodeError) as e:
-            raise CalibrationError(f"{path}: cannot read the calibration file ({e})") from None
-        except tomllib.TOMLDecodeError as e:
-            raise CalibrationError(f"{path}: not valid TOML ({e})") from None
+        except UntrustedInput as e:
+            raise CalibrationError(str(e)) from None
         return cls.from_table(data, source=str(path))
 
     @classmethod
@@ -179,17 +179,17 @@ class Calibration:
             and len(rows) == 3
             and all(isinstance(r, list) and len(r) == 3 and all(_is_number(x) for x in r) for r in rows)
         ):
-            raise CalibrationError(f"{source}: homography: expected 3 rows of 3 numbers, got {rows!r}")
+            raise CalibrationError(f"{source}: homography: expected 3 rows of 3 numbers, got {shorten(rows)}")
         kwargs: dict[str, Any] = {"homography": tuple(float(x) for r in rows for x in r)}
         for key in ("plane_y", "half_depth"):
             if key in data:
                 if not _is_number(data[key]):
-                    raise CalibrationError(f"{source}: {key}: expected a number, got {data[key]!r}")
+                    raise CalibrationError(f"{source}: {key}: expected a number, got {shorten(data[key])}")
                 kwargs[key] = float(data[key])
         if "image_size" in data:
             size = data["image_size"]
             if not (isinstance(size, list) and len(size) == 2 and all(type(s) is int for s in size)):
-                raise CalibrationError(f"{source}: image_size: expected [width, height] in whole pixels, got {size!r}")
+                raise CalibrationError(f"{source}: image_size: expected [width, height] in whole pixels, got {shorten(size)}")
             kwargs["image_size"] = (size[0], size[1])
         try:
             return cls(**kwargs)
@@ -214,7 +214,7 @@ class Calibration:
 
     def save(self, path: Path | str) -> None:
         """Write the TOML file (see :meth:`to_toml`)."""
-        Path(path).write_text(self.to_toml(), encoding="utf-8")
+        write_owned(path, self.to_toml())  # atomic; a FIFO or device there is refused
 
 
 # ---------------------------------------------------------------- internals

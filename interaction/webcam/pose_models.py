@@ -32,6 +32,8 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from sensors.untrusted import open_regular
+
 __all__ = [
     "LANDMARK_FILE",
     "MODEL_FILES",
@@ -106,7 +108,7 @@ def default_model_dir() -> Path:
 
 def sha256_of(path: Path) -> str:
     h = hashlib.sha256()
-    with path.open("rb") as f:
+    with open_regular(path) as f:  # a FIFO or device in the models folder is refused, not read forever
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()

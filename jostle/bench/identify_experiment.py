@@ -84,26 +84,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_spec(path: str) -> CharacterSpec:
     """A character spec from a TOML file of ``CharacterSpec`` keys (one clear line when it is wrong)."""
-    import tomllib
     from dataclasses import fields
 
+    from sensors.untrusted import UntrustedInput, load_toml, one_line
+    from sensors.untrusted.limits import CHARACTER_SPEC
     from sim.config import CharacterSpec
 
     if not path:
         return CharacterSpec()
-    try:
-        with open(path, "rb") as f:
-            doc = tomllib.load(f)
-    except (OSError, tomllib.TOMLDecodeError) as e:
-        raise ValueError(f"{path}: cannot read a character TOML ({e})") from None
+    doc = load_toml(path, CHARACTER_SPEC, "character spec")
     known = {f.name for f in fields(CharacterSpec)}
     unknown = sorted(set(doc) - known)
     if unknown:
-        raise ValueError(f"{path}: {unknown[0]}: unknown key; see sim.config.CharacterSpec")
+        raise UntrustedInput(path, f"{one_line(unknown[0], 60)}: unknown key; see sim.config.CharacterSpec")
     try:
         return CharacterSpec(**doc)
     except (TypeError, ValueError) as e:
-        raise ValueError(f"{path}: {e}") from None
+        raise UntrustedInput(path, str(e)) from None
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:

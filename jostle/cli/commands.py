@@ -108,6 +108,9 @@ def _command(argv: list[str] | None) -> int:
     previous_showwarning = warnings.showwarning
     warnings.showwarning = _one_line_warning
     try:
+        from jostle.cli.flags import check_flags
+
+        check_flags(args)
         result = args.func(args)
         return int(result or 0)
     except KeyboardInterrupt:

@@ -21,7 +21,6 @@ Gaussian noise, on top of ``zero_counts``) and the calibrated newtons from those
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,6 +32,8 @@ from jostle.performer.scene import Performance
 from jostle.performer.timeline import TimelineSensor
 from sensors.base import PadSample, SensorSpec
 from sensors.clock import Clock
+from sensors.untrusted import UntrustedInput, load_toml
+from sensors.untrusted.limits import CONFIG_TOML as PAD_LAYOUT
 from sim.motion import quaternion as quat
 from sim.motion.mocap import HUMANOID
 
@@ -113,11 +114,9 @@ def load_pad_layout(path: Path) -> PadLayout:
     from jostle.configtree import ConfigError, build
 
     try:
-        table = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as e:
-        raise ConfigError(f"{path}: cannot read the pad layout ({e.strerror or e})") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise ConfigError(f"{path}: not valid TOML ({e})") from None
+        table = load_toml(Path(path), PAD_LAYOUT, "pad layout")
+    except UntrustedInput as e:
+        raise ConfigError(f"{path}: cannot read the pad layout ({e.problem})") from None
     pads = table.pop("pad", [])
     if not isinstance(pads, list) or not pads:
         raise ConfigError(f"{path}: pad: expected one or more [[pad]] tables with x and y")

@@ -15,7 +15,6 @@ field of view and near/far planes, enough to rebuild its :class:`PinholeCamera`)
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +28,8 @@ from jostle.performer.scene import PersonState
 from sensors.base import RecordingCorrupt
 from sensors.recording.info import describe_recording
 from sensors.recording.stream import RecordingStream
+from sensors.untrusted import UntrustedInput, parse_json
+from sensors.untrusted.limits import JSON_SIDECAR, MESSAGE_JSON
 from sim.motion.mocap import HUMANOID
 
 TRUTH_TOPIC = "truth"
@@ -159,9 +160,9 @@ def read_truth(path: Path, topic: str = TRUTH_TOPIC) -> list[TruthFrame]:
         if msg.channel.topic != topic:
             continue
         try:
-            body = json.loads(msg.data)
-        except (ValueError, UnicodeDecodeError) as e:
-            raise _bad(path, f"message {len(frames)} is not JSON ({e})") from None
+            body = parse_json(msg.data, f"{path}: message {len(frames)}", MESSAGE_JSON)  # bounded nesting and size
+        except UntrustedInput as e:
+            raise _bad(path, f"message {len(frames)} is not JSON I can read ({e.problem})") from None
         if not isinstance(body, dict) or not isinstance(body.get("people"), list):
             raise _bad(path, f'message {len(frames)}: expected {{"people": [...]}}')
         pads = body.get("pads", [])
@@ -182,9 +183,9 @@ def _metadata_json(path: Path, key: str) -> Any:
     if text is None:
         raise RecordingCorrupt(f"{path}: no {key!r} in the recording's metadata (not made by `jostle synth`?)")
     try:
-        return json.loads(text)
-    except ValueError as e:
-        raise RecordingCorrupt(f"{path}: metadata {key!r} is not JSON ({e})") from None
+        return parse_json(text, f"{path}: metadata {key!r}", JSON_SIDECAR)
+    except UntrustedInput as e:
+        raise RecordingCorrupt(f"{path}: metadata {key!r} is not JSON I can read ({e.problem})") from None
 
 
 def read_cameras(path: Path) -> dict[str, PinholeCamera]:

@@ -10,11 +10,12 @@
 Each key is placed in its rigid body's frame: the body tilted by the key's Θ (when the animation runs
 along Θ) and turned to the clip's heading, the skeleton's centre of mass at the body origin. The poses
 go to ``poses/<animation>.toml`` in the set's folder and the animation is appended to its manifest
-(made when the folder has none).
+(made when the folder has none), as one transaction (``render.keyframes.set_staging``).
 """
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from dataclasses import dataclass
@@ -24,8 +25,11 @@ import numpy as np
 
 from render.keyframes.pose_text import format_pose
 from render.keyframes.set_file import FORMAT, KeyframeError
+from render.keyframes.set_staging import MANIFEST, StagedSet, checked_name, commit
 from render.keyframes.skeleton_pose import X, in_body_frame, standing_height, tilt_rotation, yaw_rotation
 from render.keyframes.skeletons import FIGURES, Figure
+from sensors.untrusted import UntrustedInput, one_line, parse_toml, shorten
+from sensors.untrusted.limits import KEYFRAME_SET
 from sim.motion import quaternion as quat
 from sim.motion.mocap import MotionClip
 
@@ -101,84 +105,68 @@ def _number(v: float | str | None) -> float:
 
 
 def _value(v: float | str) -> str:
-    return f'"{v}"' if isinstance(v, str) else repr(float(v))
+    return _string(v) if isinstance(v, str) else repr(float(v))
+
+
+def _string(v: str) -> str:
+    """``v`` as a TOML basic string (JSON's escapes are TOML's: quotes, backslashes, controls)."""
+    return json.dumps(v)
 
 
 def animation_text(p: Placement, keys: list[tuple[float, str, str]]) -> str:
     """An [[animation]] table; keys are (coordinate, pose name or "", referenced family or "")."""
-    lines = ["", "[[animation]]", f'name = "{p.name}"', f'behaviour = "{p.behaviour}"']
+    lines = ["", "[[animation]]", f"name = {_string(p.name)}", f"behaviour = {_string(p.behaviour)}"]
     if p.family:
-        lines.append(f'family = "{p.family}"')
-    lines.append(f'axis = "{p.axis}"')
-    lines.append("at = { " + ", ".join(f"{k} = {_value(v)}" for k, v in p.at.items()) + " }")
+        lines.append(f"family = {_string(p.family)}")
+    lines.append(f"axis = {_string(p.axis)}")
+    lines.append("at = { " + ", ".join(f"{_string(k)} = {_value(v)}" for k, v in p.at.items()) + " }")
     lines.append("keys = [")
     for x, pose, fam in sorted(keys):
-        lines.append(f"  {{ at = {x!r}, " + (f'family = "{fam}"' if fam else f'pose = "{pose}"') + " },")
+        lines.append(f"  {{ at = {x!r}, " + (f"family = {_string(fam)}" if fam else f"pose = {_string(pose)}") + " },")
     lines.append("]")
     return "\n".join(lines) + "\n"
 
 
-def add_animation(set_dir: Path, placement: Placement, keys: list[tuple[float, str, str]],
-                  poses: dict[str, Posed], source: str, skeleton: str = "humanoid", *, check: bool = True) -> Path:
-    """Write the poses to ``poses/<name>.toml`` and append the animation to the set's manifest (made if
-    missing); returns the manifest. With ``check`` the set is loaded afterwards; on failure the manifest
-    is left as it was."""
-    set_dir.mkdir(parents=True, exist_ok=True)
-    (set_dir / "poses").mkdir(exist_ok=True)
-    manifest = set_dir / "keyframes.toml"
+def add_animation(staged: StagedSet, placement: Placement, keys: list[tuple[float, str, str]],
+                  poses: dict[str, Posed], source: str, skeleton: str = "humanoid") -> None:
+    """Stage the poses as ``poses/<name>.toml`` and the animation appended to the set's manifest (made
+    if missing). Nothing is written until ``staged.commit()``, which checks the whole set first."""
+    checked_name(placement.name, "name")
+    for name in poses:
+        checked_name(name, f"animation '{placement.name}': pose")
     rel = f"poses/{placement.name}.toml"
-    before = manifest.read_text(encoding="utf-8") if manifest.exists() else None
-    known = _pose_names(set_dir, before) if before is not None else set()
-    text = f"# Imported from {source} by `jostle keyframes import`.\n\n" + "\n".join(
+    before = staged.text(MANIFEST)
+    known = _pose_names(staged, before) if before is not None else set()
+    text = f"# Imported from {one_line(source, 200)} by `jostle keyframes import`.\n\n" + "\n".join(
         format_pose(name, off, rots) for name, (off, rots) in poses.items() if name not in known
     )
     if before is None:
         if skeleton not in FIGURES:
-            raise KeyframeError(f"skeleton: expected one of {', '.join(FIGURES)}, got {skeleton!r}")
+            raise KeyframeError(f"skeleton: expected one of {', '.join(FIGURES)}, got {shorten(skeleton)}")
         head = (f'format = {FORMAT}\nskeleton = "{skeleton}"\nheight = {standing_height(FIGURES[skeleton]):.4f}\n'
-                f'default_behaviour = "{placement.behaviour}"\nposes = ["{rel}"]\n')
+                f'default_behaviour = {_string(placement.behaviour)}\nposes = ["{rel}"]\n')
         after = "# Made by `jostle keyframes import`; see configs/keyframes/humanoid/README.md for the format.\n" + head
     else:
         listed = re.search(r"^poses\s*=\s*\[(.*?)\]", before, flags=re.M | re.S)
         if listed is None:
-            raise KeyframeError(f"{manifest}: poses: expected a list of pose files to add {rel} to")
-        if f'"{rel}"' in listed.group(1):
-            raise KeyframeError(f"{manifest}: already has {rel}; pick another --name")
+            raise KeyframeError(f"{staged.manifest}: poses: expected a list of pose files to add {rel} to")
+        if f'"{rel}"' in listed.group(1) or rel in staged.changed:
+            raise KeyframeError(f"{staged.manifest}: already has {rel}; pick another --name")
         inner = listed.group(1).rstrip().rstrip(",")
         after = before[: listed.start(1)] + (inner + ", " if inner.strip() else "") + f'"{rel}"' + before[listed.end(1):]
-    pose_file = set_dir / rel
-    pose_file.write_text(text, encoding="utf-8")
-    manifest.write_text(after.rstrip("\n") + "\n" + animation_text(placement, keys), encoding="utf-8")
-    if not check:
-        return manifest
-    try:
-        from render.keyframes.keyframe_set import KeyframeSet
-
-        KeyframeSet.load(manifest)
-    except KeyframeError:
-        if before is None:
-            manifest.unlink()
-        else:
-            manifest.write_text(before, encoding="utf-8")
-        pose_file.unlink()
-        raise
-    return manifest
+    staged.write(rel, text)
+    staged.write(MANIFEST, after.rstrip("\n") + "\n" + animation_text(placement, keys))
 
 
-def _pose_names(set_dir: Path, manifest_text: str) -> set[str]:
+def _pose_names(staged: StagedSet, manifest_text: str) -> set[str]:
     """Names of the poses the set's pose files already define (a key naming one reuses it)."""
-    import tomllib
-
     try:
-        files = tomllib.loads(manifest_text).get("poses", [])
-    except tomllib.TOMLDecodeError:
+        files = parse_toml(manifest_text, staged.manifest, KEYFRAME_SET).get("poses", [])
+    except UntrustedInput:
         return set()
     names: set[str] = set()
     for rel in files if isinstance(files, list) else []:
-        try:
-            names |= set(tomllib.loads((set_dir / str(rel)).read_text(encoding="utf-8")))
-        except (OSError, tomllib.TOMLDecodeError):
-            continue
+        names |= staged.pose_names(str(rel))
     return names
 
 
@@ -186,10 +174,11 @@ def import_clip(source: Path, set_dir: Path, placement: Placement, *, keys: int 
                 frames: list[int] | None = None, coords: list[float] | None = None,
                 span: tuple[float, float] | None = None) -> Path:
     """Import a DeepMimic or BVH clip as one animation of the set in ``set_dir``; returns the manifest."""
-    manifest = set_dir / "keyframes.toml"
+    staged = StagedSet(set_dir)
     skeleton = "humanoid"
-    if manifest.exists():
-        m = re.search(r'^skeleton\s*=\s*"([^"]+)"', manifest.read_text(encoding="utf-8"), flags=re.M)
+    manifest_text = staged.text(MANIFEST)
+    if manifest_text is not None:
+        m = re.search(r'^skeleton\s*=\s*"([^"]+)"', manifest_text, flags=re.M)
         skeleton = m.group(1) if m else skeleton
     figure = FIGURES.get(skeleton, FIGURES["humanoid"])
     clip = load_clip(source, figure)  # DeepMimic joints drive any of our skeletons: same joints and axes
@@ -199,4 +188,5 @@ def import_clip(source: Path, set_dir: Path, placement: Placement, *, keys: int 
     posed = clip_poses(clip, times, placement, xs, figure)
     names = [f"{placement.name}_{k:02d}" for k in range(len(posed))]
     entries = [(float(x), n, "") for x, n in zip(xs, names, strict=True)]
-    return add_animation(set_dir, placement, entries, dict(zip(names, posed, strict=True)), source.name, skeleton)
+    add_animation(staged, placement, entries, dict(zip(names, posed, strict=True)), source.name, skeleton)
+    return commit(staged, source)

@@ -19,17 +19,32 @@ skipped on import, with a warning naming them.
 from __future__ import annotations
 
 import base64
+import json
 import math
 import warnings
 from pathlib import Path
 from typing import Any
+from urllib.parse import unquote
 
 import numpy as np
 
 from render.keyframes.clip_import import Placement, add_animation
 from render.keyframes.keyframe_set import KeyframeSet
 from render.keyframes.set_file import KeyframeError
+from render.keyframes.set_staging import MANIFEST, StagedSet, checked_name, commit
 from render.keyframes.skeletons import figure_for
+from sensors.untrusted import (
+    MissingInput,
+    UntrustedInput,
+    finite,
+    one_line,
+    parse_json,
+    read_bytes,
+    resolve_within,
+    shorten,
+    whole,
+)
+from sensors.untrusted.limits import GLTF_BUFFER, GLTF_JSON
 from sim.motion import quaternion as quat
 from sim.motion.gltf_file import save_gltf
 from sim.motion.mocap import JOINTS
@@ -100,107 +115,209 @@ def export_gltf(kset: KeyframeSet, path: Path) -> Path:
     return save_gltf(doc, blob, path)
 
 
-def _read(doc: Any, index: int, path: Path) -> np.ndarray:
+class _Buffers:
+    """The bytes of each glTF buffer, read once: a .glb's BIN chunk, a ``data:`` URI, or a file whose
+    ``uri`` lies inside the glTF's folder (``resolve_within``), each within ``limits.GLTF_BUFFER``."""
+
+    def __init__(self, doc: Any, path: Path) -> None:
+        self.doc, self.path = doc, path
+        self.read: dict[int, bytes] = {}
+
+    def __getitem__(self, index: object) -> bytes:
+        buffers = self.doc.buffers or []
+        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(buffers):
+            raise KeyframeError(f"{self.path}: buffer {shorten(index)}: no such buffer ({len(buffers)} in the file)")
+        if index not in self.read:
+            self.read[index] = self._bytes(index, buffers[index].uri)
+        return self.read[index]
+
+    def _bytes(self, index: int, uri: object) -> bytes:
+        what = f"{self.path}: buffer {index}"
+        if uri is None:
+            blob = self.doc.binary_blob()
+            if blob is None:
+                raise KeyframeError(f"{what}: no uri and no binary chunk")
+            return bytes(blob)
+        if not isinstance(uri, str):
+            raise KeyframeError(f"{what}: uri: expected a string, got {shorten(uri)}")
+        if uri.startswith("data:"):
+            head, _, payload = uri.partition(",")
+            if not head.endswith(";base64"):
+                raise KeyframeError(f"{what}: a data: uri must be base64")
+            try:
+                return base64.b64decode(payload, validate=True)
+            except ValueError:
+                raise KeyframeError(f"{what}: the data: uri is not valid base64") from None
+        try:
+            target = resolve_within(self.path.parent, unquote(uri), "uri")
+        except UntrustedInput as e:
+            raise KeyframeError(f"{what}: {e.problem}") from None
+        try:
+            return read_bytes(target, GLTF_BUFFER.max_bytes, "glTF buffer")
+        except UntrustedInput as e:
+            raise KeyframeError(f"{what} ({shorten(uri, 80)}): {e.problem}") from None
+
+
+_WIDTH = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}
+_FLOAT = 5126  # glTF componentType FLOAT
+
+
+def _read(doc: Any, index: object, path: Path, buffers: _Buffers) -> np.ndarray:
+    """Accessor ``index`` as (count, width) floats, every index, offset, stride and length checked
+    against what the file holds; KeyframeError (one line naming the file and the accessor) if not."""
+    accessors = doc.accessors or []
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(accessors):
+        raise KeyframeError(f"{path}: accessor {shorten(index)}: no such accessor ({len(accessors)} in the file)")
+
+    def bad(problem: str) -> KeyframeError:
+        return KeyframeError(f"{path}: accessor {index}: {problem}")
+
+    acc = accessors[index]
+    width = _WIDTH.get(acc.type) if isinstance(acc.type, str) else None
+    if width is None:
+        raise bad(f"type {shorten(acc.type)}: expected SCALAR, VEC3 or VEC4")
+    if acc.componentType != _FLOAT:
+        raise bad(f"expected float data, got component type {shorten(acc.componentType)}")
+    views = doc.bufferViews or []
+    if isinstance(acc.bufferView, bool) or not isinstance(acc.bufferView, int) or not 0 <= acc.bufferView < len(views):
+        raise bad(f"bufferView {shorten(acc.bufferView)}: no such buffer view ({len(views)} in the file)")
+    view = views[acc.bufferView]
+    data = buffers[view.buffer]
+    try:
+        count = whole(acc.count, "count", 1, 1 << 24)
+        item = 4 * width
+        stride = item if view.byteStride is None else whole(view.byteStride, "byteStride", item, 252)
+        view_start = whole(view.byteOffset or 0, "bufferView byteOffset", 0, len(data))
+        view_length = whole(view.byteLength, "bufferView byteLength", 0, len(data) - view_start)
+        offset = whole(acc.byteOffset or 0, "byteOffset", 0, view_length)
+    except UntrustedInput as e:
+        raise bad(f"{e.source}: {e.problem}") from None
+    if offset + stride * (count - 1) + item > view_length:
+        raise bad(f"{count} items of {item} bytes at a stride of {stride} run past its buffer view ({view_length} bytes)")
+    values = np.ndarray((count, width), dtype="<f4", buffer=data, offset=view_start + offset, strides=(stride, 4))
+    out = values.astype(float)
+    if not np.all(np.isfinite(out)):
+        raise bad("holds a value that is not a finite number")
+    return out
+
+
+def _load_document(path: Path) -> Any:
+    """The glTF file (.gltf JSON or .glb) read within ``limits.GLTF_JSON`` / ``GLTF_BUFFER``, its JSON
+    bounded before pygltflib parses it; KeyframeError (one line) for anything unreadable."""
     import pygltflib as g
 
-    acc = doc.accessors[index]
-    view = doc.bufferViews[acc.bufferView]
-    data = doc.binary_blob() if doc.buffers[view.buffer].uri is None else _uri_bytes(doc.buffers[view.buffer].uri, path)
-    width = {g.SCALAR: 1, g.VEC3: 3, g.VEC4: 4}[acc.type]
-    if acc.componentType != g.FLOAT:
-        raise KeyframeError(f"{path}: accessor {index}: expected float data, got component type {acc.componentType}")
-    start = (view.byteOffset or 0) + (acc.byteOffset or 0)
-    stride = view.byteStride or 4 * width
-    raw = np.frombuffer(data, dtype=np.uint8, count=stride * (acc.count - 1) + 4 * width, offset=start)
-    rows = [np.frombuffer(raw[i * stride : i * stride + 4 * width].tobytes(), dtype="<f4") for i in range(acc.count)]
-    return np.array(rows, dtype=float).reshape(acc.count, width)
-
-
-def _uri_bytes(uri: str, path: Path) -> bytes:
-    if uri.startswith("data:"):
-        return base64.b64decode(uri.split(",", 1)[1])
-    return (path.parent / uri).read_bytes()
+    try:
+        data = read_bytes(path, GLTF_BUFFER.max_bytes, "glTF file")
+    except MissingInput:
+        raise KeyframeError(f"{path}: no such glTF file") from None
+    except UntrustedInput as e:
+        raise KeyframeError(str(e)) from None
+    glb = data[:4] == b"glTF"
+    json_bytes = data[20:20 + int.from_bytes(data[12:16], "little")] if glb and len(data) >= 20 else data
+    try:
+        parse_json(json_bytes, path, GLTF_JSON)  # bounds: size, nesting, items (pygltflib recurses)
+        doc = g.GLTF2.load_from_bytes(data) if glb else g.GLTF2.from_json(json_bytes.decode("utf-8"))
+    except UntrustedInput as e:
+        raise KeyframeError(str(e)) from None
+    except Exception as e:  # pygltflib raises many unrelated types for a bad file
+        raise KeyframeError(f"{path}: not a glTF file I can read ({type(e).__name__}: {one_line(str(e), 120)})") from None
+    if doc is None:
+        raise KeyframeError(f"{path}: not a glTF file I can read")
+    return doc
 
 
 def import_gltf(path: Path, set_dir: Path) -> Path:
     """Add every animation of a glTF file that carries ``extras.jostle`` to the set in ``set_dir``
-    (made when missing, with the file's skeleton and settings); returns the manifest."""
-    import pygltflib as g
-
+    (made when missing, with the file's skeleton and settings); returns the manifest. One
+    transaction: on any error the set is left exactly as it was."""
     path = Path(path)
-    try:
-        doc = g.GLTF2().load(str(path))
-    except Exception as e:  # pygltflib raises many unrelated types for a bad file
-        raise KeyframeError(f"{path}: not a glTF file I can read ({type(e).__name__}: {e})") from e
-    if doc is None:
-        raise KeyframeError(f"{path}: not a glTF file I can read")
+    doc = _load_document(path)
+    buffers = _Buffers(doc, path)
     info = ((doc.asset.extras or {}) if doc.asset else {}).get("jostle", {})
+    if not isinstance(info, dict):
+        raise KeyframeError(f"{path}: asset.extras.jostle: expected an object")
     skeleton = info.get("skeleton", "humanoid")
-    node_of = {n.name: i for i, n in enumerate(doc.nodes)}
-    manifest = set_dir / "keyframes.toml"
+    node_of = {n.name: i for i, n in enumerate(doc.nodes or [])}
+    staged = StagedSet(set_dir)
     done = 0
-    for a, anim in enumerate(doc.animations):
-        extras = (anim.extras or {}).get("jostle")
+    for a, anim in enumerate(doc.animations or []):
+        extras = (anim.extras or {}).get("jostle") if isinstance(anim.extras, dict | None) else None
         name = anim.name or f"animation_{a}"
         if not isinstance(extras, dict):
-            warnings.warn(f"{path}: animation '{name}': no extras.jostle (where it lies in Q); skipped", stacklevel=2)
+            warnings.warn(f"{path}: animation {shorten(name)}: no extras.jostle (where it lies in Q); skipped", stacklevel=2)
             continue
-        tracks: dict[tuple[int, str], np.ndarray] = {}
-        for ch in anim.channels:
-            tracks[(ch.target.node, ch.target.path)] = _read(doc, anim.samplers[ch.sampler].output, path)
-        keys = extras.get("keys", [])
-        root = node_of.get("root")
-        if root is None:
-            raise KeyframeError(f"{path}: no node named 'root' (the skeleton's bones are nodes named as the bones)")
-        missing = [j for j in JOINTS if j not in node_of]
-        if missing:
-            raise KeyframeError(f"{path}: animation '{name}': no node for joint(s) {', '.join(missing)}")
-        poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-        entries = []
-        for k, key in enumerate(keys):
-            if "family" in key:
-                entries.append((float(key["at"]), "", str(key["family"])))
-                continue
-            pose_name = str(key.get("pose", f"{name}_{k:02d}"))
-            offset = tracks.get((root, "translation"), np.zeros((len(keys), 3)))[k]
-            rots = [tracks.get((root, "rotation"), np.tile(quat.IDENTITY, (len(keys), 1)))[k]]
-            rots += [tracks.get((node_of[j], "rotation"), np.tile(quat.IDENTITY, (len(keys), 1)))[k] for j in JOINTS]
-            poses[pose_name] = (np.asarray(offset, dtype=float), quat.normalize(np.array(rots)))
-            entries.append((float(key["at"]), pose_name, ""))
-        placement = Placement(name, str(extras.get("behaviour", "walk")), str(extras.get("axis", "dz")),
-                              dict(extras.get("at", {})), str(extras.get("family", "")) if extras.get("family") != name else "")
-        manifest = add_animation_unchecked(set_dir, placement, entries, poses, path.name, skeleton, info)
+        try:
+            _stage_animation(staged, anim, name, extras, doc, path, buffers, node_of, skeleton, info)
+        except (IndexError, KeyError, TypeError, ValueError, AttributeError) as e:
+            if isinstance(e, KeyframeError | UntrustedInput):
+                raise
+            raise KeyframeError(f"{path}: animation {shorten(name)}: malformed ({type(e).__name__}: "
+                                f"{one_line(str(e), 80)})") from None
         done += 1
     if done == 0:
         raise KeyframeError(f"{path}: no animation carries extras.jostle; nothing to import")
-    KeyframeSet.load(manifest)
-    return manifest
+    return commit(staged, path)
 
 
-def add_animation_unchecked(set_dir: Path, placement: Placement, entries: list[tuple[float, str, str]],
-                            poses: dict[str, tuple[np.ndarray, np.ndarray]], source: str, skeleton: str,
-                            info: dict[str, Any]) -> Path:
-    """``add_animation`` without loading the set after each one (an animation may refer to a family a
-    later one defines); a new manifest takes the file's settings."""
-    manifest = set_dir / "keyframes.toml"
-    fresh = not manifest.exists()
-    out = add_animation(set_dir, placement, entries, poses, source, skeleton, check=False)
+def _stage_animation(staged: StagedSet, anim: Any, name: str, extras: dict[str, Any], doc: Any, path: Path,
+                     buffers: _Buffers, node_of: dict[str, int], skeleton: str, info: dict[str, Any]) -> None:
+    samplers = anim.samplers or []
+    tracks: dict[tuple[int, str], np.ndarray] = {}
+    for c, ch in enumerate(anim.channels or []):
+        if not isinstance(ch.sampler, int) or not 0 <= ch.sampler < len(samplers) or ch.target is None:
+            raise KeyframeError(f"{path}: animation {shorten(name)}: channel {c}: no such sampler or no target")
+        tracks[(ch.target.node, ch.target.path)] = _read(doc, samplers[ch.sampler].output, path, buffers)
+    keys = extras.get("keys", [])
+    if not isinstance(keys, list) or not all(isinstance(k, dict) for k in keys):
+        raise KeyframeError(f"{path}: animation {shorten(name)}: extras.jostle.keys: expected a list of objects")
+    root = node_of.get("root")
+    if root is None:
+        raise KeyframeError(f"{path}: no node named 'root' (the skeleton's bones are nodes named as the bones)")
+    missing = [j for j in JOINTS if j not in node_of]
+    if missing:
+        raise KeyframeError(f"{path}: animation {shorten(name)}: no node for joint(s) {', '.join(missing)}")
+    short = [f"{n} {p}" for (n, p), v in tracks.items() if len(v) < len(keys)]
+    if short:
+        raise KeyframeError(f"{path}: animation {shorten(name)}: the {short[0]} track has fewer samples than its "
+                            f"{len(keys)} keys")
+    poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    entries = []
+    for k, key in enumerate(keys):
+        at = finite(key.get("at"), f"{path}: animation {shorten(name)}: key {k}: at")
+        if "family" in key:
+            entries.append((float(at), "", checked_name(key["family"], f"{path}: key {k}: family")))
+            continue
+        pose_name = checked_name(key.get("pose", f"{name}_{k:02d}"), f"{path}: key {k}: pose")
+        offset = tracks.get((root, "translation"), np.zeros((len(keys), 3)))[k]
+        rots = [tracks.get((root, "rotation"), np.tile(quat.IDENTITY, (len(keys), 1)))[k]]
+        rots += [tracks.get((node_of[j], "rotation"), np.tile(quat.IDENTITY, (len(keys), 1)))[k] for j in JOINTS]
+        poses[pose_name] = (np.asarray(offset, dtype=float), quat.normalize(np.array(rots)))
+        entries.append((float(at), pose_name, ""))
+    placement = Placement(checked_name(name, f"{path}: animation name"), str(extras.get("behaviour", "walk")),
+                          str(extras.get("axis", "dz")), dict(extras.get("at", {})),
+                          str(extras.get("family", "")) if extras.get("family") != name else "")
+    fresh = staged.text(MANIFEST) is None
+    add_animation(staged, placement, entries, poses, path.name, skeleton)
     if fresh:
-        text = out.read_text(encoding="utf-8")
-        if "height" in info:
-            text = _set_line(text, "height", f"{float(info['height']):.4f}")
-        if "default_behaviour" in info:
-            text = _set_line(text, "default_behaviour", f'"{info["default_behaviour"]}"')
-        extra = ""
-        if "cycle_weight" in info or "sharpness" in info:
-            extra += f"\n[interpolation]\ncycle_weight = {float(info.get('cycle_weight', 0.5))!r}\n"
-            extra += f"sharpness = {float(info.get('sharpness', 2.0))!r}\n"
-        for dim, d in (info.get("dimensions") or {}).items():
-            extra += f"\n[dimensions.{dim}]\n" + "".join(
-                f"{k} = {str(v).lower() if isinstance(v, bool) else repr(float(v))}\n" for k, v in d.items())
-        head, sep, rest = text.partition("\n[[animation]]")
-        out.write_text(head.rstrip("\n") + "\n" + extra + "\n" + sep.lstrip("\n") + rest, encoding="utf-8")
-    return out
+        staged.write(MANIFEST, _with_settings(staged.changed[MANIFEST], info))
+
+
+def _with_settings(text: str, info: dict[str, Any]) -> str:
+    """A new manifest's text with the glTF file's own settings (height, behaviour, interpolation, dimensions)."""
+    if "height" in info:
+        text = _set_line(text, "height", f"{finite(info['height'], 'extras.jostle.height'):.4f}")
+    if "default_behaviour" in info:
+        text = _set_line(text, "default_behaviour", json.dumps(str(info["default_behaviour"])))
+    extra = ""
+    if "cycle_weight" in info or "sharpness" in info:
+        extra += f"\n[interpolation]\ncycle_weight = {float(finite(info.get('cycle_weight', 0.5), 'cycle_weight'))!r}\n"
+        extra += f"sharpness = {float(finite(info.get('sharpness', 2.0), 'sharpness'))!r}\n"
+    for dim, d in (info.get("dimensions") or {}).items():
+        extra += f"\n[dimensions.{checked_name(dim, 'extras.jostle.dimensions')}]\n" + "".join(
+            f"{checked_name(k, 'dimension key')} = "
+            f"{str(v).lower() if isinstance(v, bool) else repr(float(finite(v, str(k))))}\n" for k, v in d.items())
+    head, sep, rest = text.partition("\n[[animation]]")
+    return head.rstrip("\n") + "\n" + extra + "\n" + sep.lstrip("\n") + rest
 
 
 def _set_line(text: str, key: str, value: str) -> str:

@@ -19,7 +19,6 @@ Errors make the set unusable; warnings (gaps) are for the animator to judge.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -28,6 +27,8 @@ import numpy as np
 
 from render.keyframes.interp import STANDARD_AXES
 from render.keyframes.set_file import KeyframeError
+from sensors.untrusted import InputLimits, MissingInput, UntrustedInput, load_toml
+from sensors.untrusted.limits import KEYFRAME_SET, POSE_FILE
 from sim.motion.mocap import JOINTS
 
 THETA_GAP = 0.8  # radians between neighbouring keys along Θ
@@ -70,14 +71,14 @@ class CheckReport:
         return d
 
 
-def _read(path: Path, report: CheckReport) -> dict[str, Any] | None:
+def _read(path: Path, report: CheckReport, limits: InputLimits = KEYFRAME_SET) -> dict[str, Any] | None:
+    """The TOML file within ``limits`` (``sensors.untrusted``), or None with the problem reported."""
     try:
-        with path.open("rb") as f:
-            return tomllib.load(f)
-    except FileNotFoundError:
+        return load_toml(path, limits, "keyframe file")
+    except MissingInput:
         report.problems.append(Problem("error", "invalid", str(path), None, None, "no such file"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        report.problems.append(Problem("error", "invalid", str(path), None, None, f"not valid TOML ({e})"))
+    except UntrustedInput as e:
+        report.problems.append(Problem("error", "invalid", str(path), None, None, e.problem))
     return None
 
 
@@ -101,7 +102,7 @@ def check_set(manifest: str | Path) -> CheckReport:
     files = doc.get("poses", [])
     for rel in files if isinstance(files, list) else []:
         ppath = path.parent / str(rel)
-        pdoc = _read(ppath, report)
+        pdoc = _read(ppath, report, POSE_FILE)
         for name, table in (pdoc or {}).items():
             if name in pose_file:
                 problem("error", "duplicate", str(ppath), None, None, f"pose '{name}' defined twice (also in {pose_file[name]})")

@@ -12,7 +12,6 @@ Every error is one line naming the file, the animation and key (or pose) and wha
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,8 @@ import numpy as np
 from render.keyframes.interp import STANDARD_AXES, Curve, Family, Space
 from render.keyframes.pose_text import number, parse_pose
 from render.keyframes.skeletons import SKELETONS
+from sensors.untrusted import MissingInput, UntrustedInput, load_toml
+from sensors.untrusted.limits import KEYFRAME_SET, POSE_FILE
 from sim.motion.mocap import JOINTS, Skeleton
 
 FORMAT = 1
@@ -53,13 +54,14 @@ class SetData:
 
 
 def _read_toml(path: Path, what: str) -> dict[str, Any]:
+    """A manifest or pose file read within its limits (``sensors.untrusted``); KeyframeError if not."""
+    limits = KEYFRAME_SET if what == "keyframe manifest" else POSE_FILE
     try:
-        with path.open("rb") as f:
-            return tomllib.load(f)
-    except FileNotFoundError:
+        return load_toml(path, limits, what)
+    except MissingInput:
         raise KeyframeError(f"{path}: no such {what}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise KeyframeError(f"{path}: not valid TOML ({e})") from None
+    except UntrustedInput as e:
+        raise KeyframeError(str(e)) from None
 
 
 def read_set(manifest: str | Path) -> SetData:

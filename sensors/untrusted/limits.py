@@ -43,6 +43,8 @@ TERRAIN_LAYOUT = InputLimits(max_bytes=4 * MiB, max_items=200_000)
 # BVH motion capture (text): CMU takes are 1–10 MB; an hour at 120 Hz of 30 joints is ~60 MB.
 # max_depth bounds the joint hierarchy (a parser recursing per joint), max_items the joints.
 BVH = InputLimits(max_bytes=64 * MiB, max_depth=64, max_key_parts=1, max_items=1_000)
+# A DeepMimic motion clip (JSON, 44 numbers a frame): pybullet's are 10–60 KB; a minute at 120 Hz is ~320 K numbers.
+MOTION_JSON = InputLimits(max_bytes=16 * MiB, max_depth=8, max_items=2_000_000)
 # glTF JSON (a .gltf file or the JSON chunk of a .glb): a few MB for a rigged, animated character.
 GLTF_JSON = InputLimits(max_bytes=16 * MiB, max_depth=32, max_items=1_000_000)
 # One glTF buffer (.bin or a .glb's BIN chunk): the meshes and animation samples; 128 MiB is a long

@@ -13,12 +13,16 @@ End sites are kept as joints named ``<parent>_end`` with no channels.
 from __future__ import annotations
 
 import math
+import re
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from sensors.untrusted import MissingInput, UntrustedInput, one_line, read_bytes, shorten, write_owned
+from sensors.untrusted.limits import BVH
 from sim.motion import quaternion as quat
 from sim.motion.mocap import MotionFileError
 
@@ -93,15 +97,20 @@ def read_bvh(path: str | Path) -> BvhMotion:
     """Parse a BVH file and run its forward kinematics; MotionFileError (one line) when it is not BVH."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except FileNotFoundError:
+        data = read_bytes(path, BVH.max_bytes, "BVH file")
+    except MissingInput:
         raise MotionFileError(f"{path}: no such BVH file") from None
-    return parse_bvh(text, str(path))
+    except UntrustedInput as e:
+        raise MotionFileError(str(e)) from None
+    return parse_bvh(data.decode("utf-8", errors="replace"), str(path))
 
 
 def parse_bvh(text: str, source: str = "<bvh>") -> BvhMotion:
-    """Parse BVH text; errors name ``source``."""
-    tokens = text.split()
+    """Parse BVH text; errors name ``source``. The hierarchy is bounded (``limits.BVH``: joints and
+    nesting), the frame values are read by numpy straight from the text (no token per number)."""
+    motion_at = _MOTION.search(text)
+    tokens = text[:motion_at.start()].split() + ["MOTION"] if motion_at else text.split()
+    motion_text = text[motion_at.end():] if motion_at else ""
     names: list[str] = []
     parents: list[int] = []
     offsets: list[list[float]] = []
@@ -126,6 +135,8 @@ def parse_bvh(text: str, source: str = "<bvh>") -> BvhMotion:
                 channels.append([])
                 i += 2
             elif t == "{":
+                if len(stack) >= BVH.max_depth or len(names) > BVH.max_items:
+                    raise fail(f"more than {BVH.max_depth} levels or {BVH.max_items} joints")
                 stack.append(len(names) - 1)
                 i += 1
             elif t == "}":
@@ -139,16 +150,23 @@ def parse_bvh(text: str, source: str = "<bvh>") -> BvhMotion:
                 chans = [c.lower() for c in tokens[i + 2 : i + 2 + n]]
                 bad = [c for c in chans if c[:1] not in _AXES or c[1:] not in ("position", "rotation")]
                 if bad:
-                    raise fail(f"unknown channel {bad[0]!r}")
+                    raise fail(f"unknown channel {shorten(bad[0])}")
                 channels[stack[-1]] = chans
                 i += 2 + n
             else:
-                raise fail(f"unexpected {tokens[i]!r}")
-        frames = int(tokens[i + 2])
-        frame_time = float(tokens[i + 5])
-        values = np.array([float(x) for x in tokens[i + 6 :]], dtype=float)
+                raise fail(f"unexpected {shorten(tokens[i])}")
+        header = _MOTION_HEADER.match(motion_text)
+        if header is None:
+            raise fail("expected 'Frames: N' and 'Frame Time: SECONDS' after MOTION")
+        frames = int(header.group(1))
+        frame_time = float(header.group(2))
+        values = _numbers(motion_text[header.end():])
+    except MotionFileError:
+        raise
     except (IndexError, ValueError) as e:
-        raise fail(str(e)) from None
+        raise fail(one_line(str(e), 120)) from None
+    if not (math.isfinite(frame_time) and frame_time > 0):
+        raise fail(f"Frame Time: expected seconds > 0, got {frame_time!r}")
     if not names or parents[0] != -1 or parents.count(-1) != 1:
         raise fail("expected exactly one ROOT")
     width = sum(len(c) for c in channels)
@@ -181,6 +199,21 @@ def parse_bvh(text: str, source: str = "<bvh>") -> BvhMotion:
             rot[:, b] = quat.multiply(rot[:, p], local_r[:, b])
     return BvhMotion(tuple(names), tuple(parents), off, frame_time, pos, tuple(tuple(c) for c in channels), data,
                      local_r, local_t, rot)
+
+
+_MOTION = re.compile(r"(?:^|(?<=\s))MOTION(?=\s|$)", re.IGNORECASE)
+_MOTION_HEADER = re.compile(r"\s*Frames:\s*(\d{1,9})\s+Frame\s+Time:\s*(\S{1,64})\s", re.IGNORECASE)
+
+
+def _numbers(text: str) -> np.ndarray:
+    """The whitespace-separated numbers of ``text`` as floats; ValueError at the first that is not one."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)  # numpy's way of saying "stopped early"
+        try:
+            values = np.fromstring(text, dtype=float, sep=" ")
+        except DeprecationWarning:
+            raise ValueError("a frame value is not a number") from None
+    return values
 
 
 def write_bvh(
@@ -251,5 +284,5 @@ def write_bvh(
         lines.append(" ".join(row))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_owned(path, "\n".join(lines) + "\n")
     return path

@@ -7,6 +7,8 @@ import base64
 from pathlib import Path
 from typing import Any
 
+from sensors.untrusted import write_owned
+
 
 def save_gltf(doc: Any, blob: bytes | bytearray, path: Path | str) -> Path:
     """Save the pygltflib ``doc`` whose ``buffers[0]`` is ``blob`` to ``path`` (parents made); returns it."""
@@ -14,8 +16,9 @@ def save_gltf(doc: Any, blob: bytes | bytearray, path: Path | str) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix.lower() == ".glb":
         doc.set_binary_blob(bytes(blob))
-        doc.save_binary(str(path))
+        data: bytes | str = b"".join(doc.save_to_bytes())
     else:
         doc.buffers[0].uri = "data:application/octet-stream;base64," + base64.b64encode(bytes(blob)).decode()
-        doc.save_json(str(path))
+        data = doc.gltf_to_json()
+    write_owned(path, data)  # atomic; a FIFO or device at ``path`` is refused, never replaced
     return path

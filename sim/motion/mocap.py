@@ -9,12 +9,13 @@ frames and are aligned here. Nothing here trusts the file: it is parsed as JSON 
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from sensors.untrusted import MissingInput, UntrustedInput, load_json
+from sensors.untrusted.limits import MOTION_JSON
 from sim.motion import quaternion as quat
 
 JOINTS: tuple[str, ...] = (
@@ -81,11 +82,11 @@ class MotionClip:
     def load(cls, path: str | Path) -> MotionClip:
         path = Path(path)
         try:
-            doc = json.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
+            doc = load_json(path, MOTION_JSON, "motion file")
+        except MissingInput:
             raise MotionFileError(f"{path}: no such motion file") from None
-        except (UnicodeDecodeError, json.JSONDecodeError) as e:
-            raise MotionFileError(f"{path}: not a DeepMimic motion file (not JSON: {e})") from None
+        except UntrustedInput as e:
+            raise MotionFileError(f"{path}: not a DeepMimic motion file ({e.problem})") from None
         if not isinstance(doc, dict) or not isinstance(doc.get("Frames"), list) or len(doc["Frames"]) < 2:
             raise MotionFileError(f"{path}: expected an object with a 'Frames' list of at least 2 frames")
         rows = doc["Frames"]
