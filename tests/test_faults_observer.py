@@ -15,7 +15,7 @@ import pytest
 from interaction.observers import Observer, ObserverType, observer_types
 from interaction.pads import PadsObserver, PadsObserverConfig
 from interaction.types import BodyObservation, Contactor
-from jostle import app as app_module
+from jostle import run_setup
 from jostle.app import App, RunOptions
 from jostle.config import JostleConfig, ObserverEntry, SensorEntry, load_config
 from jostle.observer_guard import ObserverGuard
@@ -193,7 +193,7 @@ def test_in_the_app_a_crashing_observer_is_rebuilt_while_the_other_goes_on(
         return Crashing(inner, crash)
 
     table["webcam"] = ObserverType(real.config, build, real.needs_calibration, real.description)
-    monkeypatch.setattr(app_module, "observer_types", lambda: table)
+    monkeypatch.setattr(run_setup, "observer_types", lambda: table)
     app = App(_two_cameras(), RunOptions(out_dir=None, seed=7, duration_s=9.0, video=False, progress=False))
     trace: list[tuple[float, str, int]] = []
     app.on_frame = lambda snap, obs, image: trace.append(
@@ -241,7 +241,7 @@ def test_in_the_app_nan_contactors_are_dropped_counted_and_never_reach_the_physi
     real = table["webcam"]
     table["webcam"] = ObserverType(real.config, lambda c, cal, s: NanContactors(real.build(c, cal, s)),
                                    real.needs_calibration, real.description)
-    monkeypatch.setattr(app_module, "observer_types", lambda: table)
+    monkeypatch.setattr(run_setup, "observer_types", lambda: table)
     cfg = load_config(ROOT / "configs" / "demo.toml")
     cfg = dataclasses.replace(cfg, render=dataclasses.replace(cfg.render, width=160, height=90))
     app = App(cfg, RunOptions(out_dir=None, seed=7, duration_s=5.0, video=False, progress=False))

@@ -24,7 +24,7 @@ PADS = PadsObserverConfig(positions=(0.0, 0.0, 1.0), directions=(0.0, 1.0, 0.0))
 CRASHING_JOSTLE = """
 import sys
 from interaction import observers
-from jostle import app
+from jostle import run_setup
 from jostle.cli import main
 
 real = observers.observer_types()["webcam"]
@@ -36,7 +36,7 @@ class Crashing:
 table = observers.observer_types()
 table["webcam"] = observers.ObserverType(real.config, lambda config, calibration, sensor: Crashing(),
                                          real.needs_calibration, real.description)
-app.observer_types = lambda: table
+run_setup.observer_types = lambda: table
 sys.exit(main(sys.argv[1:]))
 """
 

@@ -11,7 +11,7 @@ import pytest
 
 from interaction.observers import Observer, ObserverType, observer_types
 from interaction.types import BodyObservation
-from jostle import app as app_module
+from jostle import run_setup
 from jostle.bench.soak import FreeRunningClock, looped, rss_mb
 from jostle.cli.bench import main_json
 from jostle.config import load_config
@@ -48,7 +48,7 @@ def test_a_short_soak_returns_every_figure_with_sane_values(monkeypatch: pytest.
         return OnceCrashing()
 
     table["webcam"] = ObserverType(real.config, build, real.needs_calibration, real.description)
-    monkeypatch.setattr(app_module, "observer_types", lambda: table)
+    monkeypatch.setattr(run_setup, "observer_types", lambda: table)
     minutes = 0.15
     started = time.perf_counter()
     figures = main_json("soak", ["--minutes", str(minutes), "--config", str(ROOT / "configs" / "demo.toml"),
