@@ -249,7 +249,8 @@ class Health:
                        f"dropped {s['dropped']}  bad {s['bad']}  last {'-' if age is None else f'{age:.1f} s'} ago")
         for name, o in report.get("observers", {}).items():
             out.append(f"observer {name}: {o.get('state', '?')}  crashes {o.get('crashes', 0)}  "
-                       f"restarts {o.get('restarts', 0)}  dropped non-finite {o.get('dropped_non_finite', 0)}")
+                       f"restarts {o.get('restarts', 0)}  dropped non-finite {o.get('dropped_non_finite', 0)}  "
+                       f"bad frames {o.get('bad_frames', 0)}")
         d = report["dropped"]
         out.append(f"dropped: sensor frames {d['sensor_frames']}  late frames {d['late_frames']}  "
                    f"sim {d['sim_seconds']:.2f} s")
