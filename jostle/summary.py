@@ -7,6 +7,7 @@ import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from sensors.untrusted import write_owned
 from sim.snapshot import CharacterState, WorldSnapshot
 
 
@@ -36,7 +37,8 @@ class RunSummary:
         return json.dumps(asdict(self), indent=2, sort_keys=False)
 
     def write(self, path: Path) -> None:
-        path.write_text(self.to_json() + "\n", encoding="utf-8")
+        """Write the JSON to ``path`` (``write_owned``: a special file there is refused, never replaced)."""
+        write_owned(path, self.to_json() + "\n")
 
 
 class SnapshotTally:
