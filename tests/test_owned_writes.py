@@ -60,7 +60,7 @@ def _frames(n: int) -> list[Frame]:
     replay = Replay(FIXTURE, clock, channel="webcam")
     replay.open()
     clock.advance(10_000.0)
-    out = []
+    out: list[Frame] = []
     while len(out) < n and (f := replay.read(0.0)) is not None:
         out.append(f)
     replay.close()
