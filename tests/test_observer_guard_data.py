@@ -1,10 +1,11 @@
 """The observer guard and frames the data makes wrong: a frame size changing mid-stream (real
-OpenCV webcam observer on a real photo), a pad count changing to 0/3/10⁶, pad forces NaN, infinite,
+OpenCV webcam observer on a real photo, and in the App on the demo recording), a pad count changing to 0/3/10⁶, pad forces NaN, infinite,
 1e999 or int32 extremes (5.4e8 N): each kind one warning line, the frame skipped and counted, the
 observer never rebuilt, the frames before and after observed."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from pathlib import Path
@@ -16,9 +17,13 @@ import pytest
 from interaction.pads import PadsObserver, PadsObserverConfig
 from interaction.webcam import WebcamObserver, WebcamObserverConfig
 from interaction.webcam.calibration import Calibration
+from jostle.app import App, RunOptions
+from jostle.config import load_config
 from jostle.observer_guard import PAD_MAX_NEWTONS, ObserverGuard
 from sensors.base import ColorImage, Frame, PadSample
 from sensors.clock import SimClock
+from sensors.recording.source import iter_payloads
+from sensors.recording.writer import RecordingWriter
 from sensors.untrusted import UntrustedInput
 
 PHOTO = Path(__file__).resolve().parent / "fixtures" / "photos" / "camera.jpg"
@@ -130,3 +135,35 @@ def test_an_observer_refusing_data_is_not_rebuilt(caplog: pytest.LogCaptureFixtu
     h = guard.health()
     assert (h.bad_frames, h.observed, h.crashes, h.restarts) == (50, 50, 0, 0)
     assert len(_records(caplog)) == 1 and len(guard.builds) == 1  # type: ignore[attr-defined]
+
+
+def test_in_the_app_a_recording_whose_frames_shrink_midway_is_one_line_and_goes_on(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    root = Path(__file__).resolve().parent.parent
+    demo = root / "configs" / "recordings" / "demo.mcap"
+    shrunk = tmp_path / "shrunk.mcap"
+    writer = RecordingWriter(shrunk)
+    n = 0
+    for t_ns, seq, payload in iter_payloads(demo, "webcam"):
+        assert isinstance(payload, ColorImage)
+        if t_ns > 2_000_000_000:  # from 2 s on, the frames are half the size
+            w, h = payload.size
+            payload = ColorImage(cv2.resize(payload.bgr, (w // 2, h // 2)))
+        writer.write(Frame("webcam", t_ns / 1e9, seq, payload))
+        n += 1
+        if t_ns > 4_000_000_000:
+            break
+    writer.close()
+    cfg = load_config(root / "configs" / "demo.toml")
+    cam = cfg.sensors[0]
+    cfg = dataclasses.replace(cfg, sensors=(dataclasses.replace(cam, config=dataclasses.replace(cam.config, path=shrunk)),),
+                              render=dataclasses.replace(cfg.render, width=160, height=90))
+    app = App(cfg, RunOptions(out_dir=None, seed=7, duration_s=4.0, video=False, progress=False))
+    with caplog.at_level(logging.INFO):
+        app.run()
+    health = app.observer_guards["webcam"].health()
+    assert (health.crashes, health.restarts, health.bad_kinds) == (0, 0, ("frame size",))
+    assert health.bad_frames > 20 and health.observed > 20 and health.bad_frames + health.observed <= n
+    lines = [r for r in caplog.records if r.levelno >= logging.WARNING and r.name == "jostle.observers"]
+    assert len(lines) == 1 and lines[0].exc_info is None
