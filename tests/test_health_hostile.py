@@ -15,9 +15,13 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
+from jostle.health import ErrorRing, Health
 from jostle.health_report import LISTEN_BACKLOG, HealthFile, HealthServer
+from sim.config import WorldConfig
+from sim.world import World
 
 
 def _report() -> dict[str, Any]:
@@ -118,3 +122,25 @@ def test_a_burst_of_connections_waits_in_the_backlog() -> None:
         for s in waiting:
             s.close()
         server.close()
+
+
+def test_an_observer_that_skips_its_frames_is_a_problem_until_it_observes_again() -> None:
+    health = Health(30.0, live=False, stall_s=1.0, errors=ErrorRing())
+    observed, bad = 0, 0
+    problems = []
+    with World(WorldConfig(), np.random.default_rng(0)) as world:
+        snap = world.snapshot()
+        for i in range(90):  # 3 s at 30 fps: observing for 1 s, skipping for 1.5 s, observing again
+            t = i / 30
+            if t < 1.0 or t >= 2.5:
+                observed += 1
+            else:
+                bad += 1
+            fig = {"state": "running", "observed": observed, "bad_frames": bad,
+                   "bad_kinds": ("frame size",) if bad else ()}
+            health.update(t, snap, None, {}, observers={"webcam": fig}, wall=t)
+            problems.append((t, health.report()["problems"]))
+    skipping = [t for t, p in problems if p]
+    assert all(p[0].startswith("observer webcam skips its frames (frame size; bad frames ") for t, p in problems if p)
+    assert skipping and 2.0 <= skipping[0] <= 2.05 and skipping[-1] < 2.5  # after stall_s of skipping only
+    assert health.report()["status"] == "ok"  # observing again
