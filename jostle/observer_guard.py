@@ -5,9 +5,10 @@
 ``PAD_MAX_NEWTONS``, or the observer raising ``UntrustedInput``) is skipped: one warning line per
 kind, then counted (``bad_frames``); the observer keeps running. Any other exception is a crash:
 one error line (its record carries the first traceback, shown only with ``--debug``), counted; the
-observer is dropped, every frame gets an empty observation until, after a back-off (``first_backoff_s`` doubling to
-``max_backoff_s``, reset after ``healthy_after_s``), it is rebuilt. A contactor or impulse carrying a
-NaN or infinite number is dropped and counted (``dropped_non_finite``). Times are the loop's clock;
+observer is dropped, every frame gets an empty observation until, after a back-off
+(``first_backoff_s`` doubling to ``max_backoff_s``, reset after ``healthy_after_s``), it is rebuilt.
+A contactor or impulse carrying a NaN or infinite number is dropped and counted
+(``dropped_non_finite``). Times are the loop's clock;
 :meth:`ObserverGuard.health` returns the counters (``observed``: frames that gave an observation).
 """
 
