@@ -128,7 +128,7 @@ class Health:
         self._phase = "play"
         self._counters: dict[str, int] = {}
         self._observers: dict[str, dict[str, Any]] = {}
-        self._changed: dict[tuple[str, str], float] = {}  # (observer, "observed" | "bad_frames") → loop time
+        self._changed: dict[tuple[str, str], float] = {}  # (observer, "observations" | "bad_frames") → loop time
         self._watchdog: dict[str, Any] = {"flowing": False, "pings": 0}
 
     # ------------------------------------------------------------------ the loop's side
@@ -177,7 +177,7 @@ class Health:
     def _note_skips(self, name: str, now: float, figures: Mapping[str, Any]) -> None:
         """When an observer last observed a frame and last skipped one (loop time)."""
         before = self._observers.get(name, {})
-        for key in ("observed", "bad_frames"):
+        for key in ("observations", "bad_frames"):
             if figures.get(key, 0) != before.get(key, 0) or (name, key) not in self._changed:
                 self._changed[(name, key)] = now if figures.get(key, 0) else -math.inf
 
@@ -199,7 +199,7 @@ class Health:
             if o.get("state", "running") != "running":
                 out.append(f"observer {name} is {o['state']}" + (f": {o['last_error']}" if o.get("last_error") else ""))
             elif (self._now - self._changed.get((name, "bad_frames"), -math.inf) <= self.stall_s
-                  and self._now - self._changed.get((name, "observed"), -math.inf) > self.stall_s):
+                  and self._now - self._changed.get((name, "observations"), -math.inf) > self.stall_s):
                 kinds = ", ".join(o.get("bad_kinds", ())) or "bad data"
                 out.append(f"observer {name} skips its frames ({kinds}; bad frames {o.get('bad_frames', 0)})")
         ended = bool(self._sensors) and all(s["state"] == SensorState.ENDED for s in self._sensors.values())

@@ -8,8 +8,8 @@ one error line (its record carries the first traceback, shown only with ``--debu
 observer is dropped, every frame gets an empty observation until, after a back-off
 (``first_backoff_s`` doubling to ``max_backoff_s``, reset after ``healthy_after_s``), it is rebuilt.
 A contactor or impulse carrying a NaN or infinite number is dropped and counted
-(``dropped_non_finite``). Times are the loop's clock;
-:meth:`ObserverGuard.health` returns the counters (``observed``: frames that gave an observation).
+(``dropped_non_finite``). Times are the loop's clock. :meth:`ObserverGuard.health` returns the
+counters; :meth:`ObserverGuard.never_observed` says when frames came and no observation came out.
 """
 
 from __future__ import annotations
@@ -47,8 +47,9 @@ class ObserverHealth:
     non_finite_inputs: int  # pad samples with NaN or infinite newtons (skipped, also in bad_frames)
     last_error: str  # one line: "ValueError: ..." ("" if none yet)
     retry_in_s: float  # seconds until the next rebuild (0 while running)
+    frames: int = 0  # frames its sensor handed it
+    observations: int = 0  # observations its observer returned (a crash, a wait or a skipped frame: none)
     bad_frames: int = 0  # frames skipped because of what they hold (see the module docstring)
-    observed: int = 0  # frames the observer turned into an observation
     bad_kinds: tuple[str, ...] = ()  # the kinds of bad frames seen, in the order first seen
 
 
@@ -98,8 +99,9 @@ class ObserverGuard:
         self._dropped = 0
         self._non_finite_in = 0
         self._last_error = ""
+        self._frames = 0
+        self._observations = 0
         self._bad: dict[str, int] = {}  # kind of bad frame → frames skipped
-        self._observed = 0
         self._shape: tuple[str, tuple[int, ...]] | None = None  # payload kind and size of good frames
         self.restart_times: list[float] = []  # clock times of the successful rebuilds (the last 64)
 
@@ -117,13 +119,26 @@ class ObserverGuard:
             restarts=self._restarts, failed_restarts=self._failed_restarts, dropped_non_finite=self._dropped,
             non_finite_inputs=self._non_finite_in, last_error=self._last_error,
             retry_in_s=0.0 if running else max(0.0, self._retry_at - self._clock.now()),
-            bad_frames=sum(self._bad.values()), observed=self._observed, bad_kinds=tuple(self._bad),
+            frames=self._frames, observations=self._observations, bad_frames=sum(self._bad.values()),
+            bad_kinds=tuple(self._bad),
         )
+
+    def never_observed(self) -> str | None:
+        """One line when its sensor handed it frames and it returned no observation for any (it crashed
+        on every one, could not be rebuilt, or every frame was bad), else None: such a run did not do
+        its job."""
+        if not self._frames or self._observations:
+            return None
+        why = f"; last error: {self._last_error}" if self._last_error else ""
+        bad = f", bad frames: {sum(self._bad.values())} ({', '.join(self._bad)})" if self._bad else ""
+        return (f"observer {self.name!r} produced nothing from the {self._frames} frames of its sensor "
+                f"(crashes: {self._crashes}, failed rebuilds: {self._failed_restarts}{bad}{why})")
 
     # ------------------------------------------------------------------ the loop's call
 
     def observe(self, frame: Frame) -> BodyObservation:
         now = self._clock.now()
+        self._frames += 1
         if self._observer is None:
             if now < self._retry_at:
                 return BodyObservation(t=frame.t)
@@ -144,7 +159,7 @@ class ObserverGuard:
         except Exception as e:  # any bug in one observer; the loop and the other observers go on
             self._crashed(e, now, "crashed")
             return BodyObservation(t=frame.t)
-        self._observed += 1
+        self._observations += 1
         if self._shape is None:
             self._shape = _shape(frame)
         return self._checked(obs)

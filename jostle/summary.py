@@ -37,8 +37,7 @@ class RunSummary:
         return json.dumps(asdict(self), indent=2, sort_keys=False)
 
     def write(self, path: Path) -> None:
-        """Write the JSON to ``path`` (``write_owned``: a special file there is refused, never replaced)."""
-        write_owned(path, self.to_json() + "\n")
+        write_owned(path, self.to_json() + "\n")  # a regular file or none: never a device or FIFO
 
 
 class SnapshotTally:

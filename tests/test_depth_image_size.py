@@ -67,6 +67,8 @@ def test_another_aspect_ratio_is_refused_and_the_guard_skips_with_one_line(caplo
             clock.advance(0.1)
             guard.observe(f)
     health = guard.health()
-    assert (health.crashes, health.restarts, health.bad_frames, health.observed) == (0, 0, len(frames), 0)
+    assert (health.crashes, health.restarts, health.bad_frames, health.observations) == (0, 0, len(frames), 0)
     lines = [r for r in caplog.records if r.levelno >= logging.WARNING]
     assert len(lines) == 1 and "another aspect ratio" in lines[0].getMessage() and lines[0].exc_info is None
+    said = guard.never_observed()
+    assert said is not None and f"bad frames: {len(frames)} (depth calibration)" in said and "\n" not in said

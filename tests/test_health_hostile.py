@@ -136,7 +136,7 @@ def test_an_observer_that_skips_its_frames_is_a_problem_until_it_observes_again(
                 observed += 1
             else:
                 bad += 1
-            fig = {"state": "running", "observed": observed, "bad_frames": bad,
+            fig = {"state": "running", "observations": observed, "bad_frames": bad,
                    "bad_kinds": ("frame size",) if bad else ()}
             health.update(t, snap, None, {}, observers={"webcam": fig}, wall=t)
             problems.append((t, health.report()["problems"]))

@@ -61,8 +61,9 @@ def test_a_frame_size_changing_mid_stream_is_skipped_with_one_line(caplog: pytes
         clock.advance(1 / 30)
         guard.observe(Frame("cam", clock.now(), i, ColorImage(img.copy())))
     h = guard.health()
-    assert (h.bad_frames, h.observed, h.crashes, h.restarts) == (20, 10, 0, 0)
+    assert (h.bad_frames, h.observations, h.crashes, h.restarts) == (20, 10, 0, 0)
     assert h.bad_kinds == ("frame size",) and h.state == "running" and len(guard.builds) == 1  # type: ignore[attr-defined]
+    assert h.frames == len(images) and guard.never_observed() is None
     [line] = _records(caplog)
     assert line.levelno == logging.WARNING and line.exc_info is None
     assert "a color frame of 200×150 after frames of 320×240" in line.getMessage()
@@ -80,7 +81,7 @@ def test_a_pad_count_changing_is_skipped_with_one_line(caplog: pytest.LogCapture
         clock.advance(0.0125)
         guard.observe(Frame("pads", clock.now(), i, samples[n]))
     h = guard.health()
-    assert (h.bad_frames, h.observed, h.crashes, h.restarts, h.bad_kinds) == (50, 20, 0, 0, ("pad count",))
+    assert (h.bad_frames, h.observations, h.crashes, h.restarts, h.bad_kinds) == (50, 20, 0, 0, ("pad count",))
     [line] = _records(caplog)
     assert line.levelno == logging.WARNING and "pad" in line.getMessage()
     assert len(line.getMessage()) < 400  # a million pads are not echoed
@@ -98,7 +99,7 @@ def test_impossible_pad_forces_are_skipped_counted_and_said_once(caplog: pytest.
         newtons = (force, 0.0, 0.0, 0.0) if 10 <= i < 30 else (5.0, 0.0, 0.0, 0.0)
         guard.observe(Frame("pads", clock.now(), i, PadSample(newtons, (0, 0, 0, 0))))
     h = guard.health()
-    assert (h.bad_frames, h.observed, h.crashes, h.bad_kinds) == (20, 20, 0, ("pad force",))
+    assert (h.bad_frames, h.observations, h.crashes, h.bad_kinds) == (20, 20, 0, ("pad force",))
     assert h.non_finite_inputs == (0 if math.isfinite(force) else 20)
     [line] = _records(caplog)
     assert "pad" in line.getMessage() and "force" in line.getMessage()
@@ -110,7 +111,7 @@ def test_a_force_a_person_can_make_is_observed() -> None:
     for i in range(20):
         clock.advance(0.0125)
         guard.observe(Frame("pads", clock.now(), i, PadSample((3000.0, -50.0, 0.0, 900.0), (0, 0, 0, 0))))
-    assert (guard.health().bad_frames, guard.health().observed) == (0, 20)
+    assert (guard.health().bad_frames, guard.health().observations) == (0, 20)
 
 
 class Refusing:
@@ -133,7 +134,7 @@ def test_an_observer_refusing_data_is_not_rebuilt(caplog: pytest.LogCaptureFixtu
         clock.advance(0.0125)
         guard.observe(Frame("pads", clock.now(), i, PadSample((1.0,) * 4, (0,) * 4)))
     h = guard.health()
-    assert (h.bad_frames, h.observed, h.crashes, h.restarts) == (50, 50, 0, 0)
+    assert (h.bad_frames, h.observations, h.crashes, h.restarts) == (50, 50, 0, 0)
     assert len(_records(caplog)) == 1 and len(guard.builds) == 1  # type: ignore[attr-defined]
 
 
@@ -164,6 +165,6 @@ def test_in_the_app_a_recording_whose_frames_shrink_midway_is_one_line_and_goes_
         app.run()
     health = app.observer_guards["webcam"].health()
     assert (health.crashes, health.restarts, health.bad_kinds) == (0, 0, ("frame size",))
-    assert health.bad_frames > 20 and health.observed > 20 and health.bad_frames + health.observed <= n
+    assert health.bad_frames > 20 and health.observations > 20 and health.bad_frames + health.observations <= n
     lines = [r for r in caplog.records if r.levelno >= logging.WARNING and r.name == "jostle.observers"]
     assert len(lines) == 1 and lines[0].exc_info is None

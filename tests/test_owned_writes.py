@@ -1,5 +1,5 @@
-"""Files the run writes go only where a regular file is or nothing is: the summary, calibrations
-and session recordings refuse a FIFO, a device or a symlink by name and leave it as it is; session
+"""Files the run writes go only where a regular file is or nothing is: the summary and session
+recordings refuse a FIFO, a device or a symlink by name and leave it as it is; session
 files named like ours that are not regular files are never deleted."""
 
 from __future__ import annotations
@@ -11,7 +11,6 @@ from pathlib import Path
 
 import pytest
 
-from interaction.depth.calibration import DepthCalibration
 from jostle.session_recording import SessionRecordConfig, SessionRecorder
 from jostle.summary import RunSummary
 from sensors.base import Frame
@@ -36,23 +35,18 @@ def _specials(tmp_path: Path) -> list[Path]:
     return [fifo, link, Path("/dev/full")]
 
 
-def test_the_summary_and_a_depth_calibration_refuse_special_files(tmp_path: Path) -> None:
-    cal = DepthCalibration(rotation=(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), translation=(0.0, 0.0, 2.0),
-                           floor=(0.0, 1.0, 0.0, 1.5))
+def test_the_summary_refuses_special_files(tmp_path: Path) -> None:
     for path in _specials(tmp_path):
         before = _kind(path)
         with pytest.raises(UntrustedInput, match=f"^{path}: is a ") as e:
             RunSummary().write(path)
         assert "\n" not in str(e.value)
         with pytest.raises(UntrustedInput, match=f"^{path}: is a "):
-            cal.save(path)
-        with pytest.raises(UntrustedInput, match=f"^{path}: is a "):
             check_owned(path)
         assert _kind(path) == before
     assert (tmp_path / "theirs.txt").read_text() == "theirs\n"
     RunSummary().write(tmp_path / "summary.json")  # a regular file (or none) is fine
-    cal.save(tmp_path / "depth.toml")
-    assert DepthCalibration.load(tmp_path / "depth.toml") == cal
+    assert check_owned(tmp_path / "summary.json") == tmp_path / "summary.json"
 
 
 def _frames(n: int) -> list[Frame]:

@@ -99,6 +99,6 @@ def test_int32_extremes_from_a_board_are_skipped_by_the_guard_with_one_line(
         clock.advance(0.0125)
         guard.observe(f)
     h = guard.health()
-    assert (h.bad_frames, h.observed, h.crashes) == (10, 10, 0)
+    assert (h.bad_frames, h.observations, h.crashes) == (10, 10, 0)
     lines = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
     assert len(lines) == 1 and "5.37e+08 N" in lines[0], lines

@@ -153,9 +153,7 @@ class DepthCalibration:
         return "\n".join(lines) + "\n"
 
     def save(self, path: Path | str) -> None:
-        from sensors.untrusted import write_owned
-
-        write_owned(path, self.to_toml())  # a FIFO or device there is refused, never replaced
+        Path(path).write_text(self.to_toml(), encoding="utf-8")
 
 
 @dataclass(frozen=True)

@@ -214,9 +214,7 @@ class Calibration:
 
     def save(self, path: Path | str) -> None:
         """Write the TOML file (see :meth:`to_toml`)."""
-        from sensors.untrusted import write_owned
-
-        write_owned(path, self.to_toml())  # a FIFO or device there is refused, never replaced
+        Path(path).write_text(self.to_toml(), encoding="utf-8")
 
 
 # ---------------------------------------------------------------- internals
