@@ -46,8 +46,8 @@ def test_another_scale_warns_once_and_sees_the_same(caplog: pytest.LogCaptureFix
         for f in frames:
             assert exact.observe(f) == other.observe(f)
     lines = [r.getMessage() for r in caplog.records if r.name == "interaction.depth"]
-    assert lines == [f"depth calibration made for {2 * w}×{2 * h} depth images, the camera sends {w}×{h}: the same "
-                     "aspect ratio, taken as the same camera at another resolution"]
+    assert lines == [f"depth calibration: the camera's depth frame is {w}×{h}, but the calibration was made for "
+                     f"{2 * w}×{2 * h}: the same aspect ratio, taken as the same camera at another resolution"]
     assert cal.fits_image((w, h)) is None and dataclasses.replace(cal, image_size=None).fits_image((5, 7)) is None
 
 
@@ -57,8 +57,8 @@ def test_another_aspect_ratio_is_refused_and_the_guard_skips_with_one_line(caplo
     assert cal.image_size is not None
     w, h = cal.image_size
     wrong = dataclasses.replace(cal, image_size=(w, w))
-    with pytest.raises(UntrustedInput, match=rf"^depth calibration: made for {w}×{w} depth images, the camera "
-                                             rf"sends {w}×{h} \(another aspect ratio"):
+    with pytest.raises(UntrustedInput, match=rf"^depth calibration: the camera's depth frame is {w}×{h}, but the "
+                                             rf"calibration was made for {w}×{w} \(another aspect ratio"):
         DepthObserver(DepthObserverConfig(), wrong).observe(frames[0])
     clock = SimClock()
     guard = ObserverGuard("oak", lambda: DepthObserver(DepthObserverConfig(), wrong), clock)

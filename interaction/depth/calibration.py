@@ -88,11 +88,11 @@ class DepthCalibration:
         from sensors.untrusted import UntrustedInput
 
         (w0, h0), (w, h) = self.image_size, size
-        made = f"made for {w0}×{h0} depth images, the camera sends {w}×{h}"
+        made = f"the camera's depth frame is {w}×{h}, but the calibration was made for {w0}×{h0}"
         if abs(w * h0 - w0 * h) > 0.01 * w0 * h:
             raise UntrustedInput("depth calibration", f"{made} (another aspect ratio: another camera or mode); "
                                                       "calibrate again with `jostle calibrate depth`")
-        return f"depth calibration {made}: the same aspect ratio, taken as the same camera at another resolution"
+        return f"depth calibration: {made}: the same aspect ratio, taken as the same camera at another resolution"
 
     # ------------------------------------------------------------ TOML
 
