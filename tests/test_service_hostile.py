@@ -123,3 +123,11 @@ def test_a_fifo_where_the_unit_goes_is_refused_and_left(tmp_path: Path, capsys: 
     assert fifo.is_fifo()
     assert main(["service", "install", str(path), "--user", "--unit-dir", str(units)]) == 2  # without --force
     assert "is a FIFO" in _one_error(capsys) and fifo.is_fifo()
+
+
+def test_a_unit_dir_that_is_a_file_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = _config(tmp_path)
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    assert main(["service", "install", str(path), "--user", "--unit-dir", str(blocker / "units")]) == 2
+    assert "cannot make the folder for the unit" in _one_error(capsys)

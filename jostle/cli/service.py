@@ -127,7 +127,10 @@ def _install(args: argparse.Namespace) -> int:
             from jostle.errors import UsageError
 
             raise UsageError(f"{target}: a unit of that name exists; use --force to replace it (or --name)")
-        unit_dir.mkdir(parents=True, exist_ok=True)
+        try:
+            unit_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise UntrustedInput(unit_dir, f"cannot make the folder for the unit: {e.strerror or type(e).__name__}") from None
         write_owned(target, text)  # a FIFO, device or symlink there is refused, never replaced
         print(f"jostle: wrote {target}")
     short = name.removesuffix(".service")
