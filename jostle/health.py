@@ -7,13 +7,15 @@ people seen, characters by state, dropped frames, the world's repair counters, r
 errors (from :class:`ErrorRing`, a logging handler), attract/play, and whether the watchdog is fed.
 
 Status: ``"starting"`` before the first frame, ``"ok"``, or ``"degraded"`` with the problems listed
-(a sensor not connected, no sensor frames for ``stall_s``, errors logged in the last minute, the
-frame rate below half its target on a live display).
+(a sensor not connected, no sensor frames for ``stall_s``, an observer that skipped frames and
+observed none for ``stall_s``, errors logged in the last minute, the frame rate below half its
+target on a live display).
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from collections import Counter, deque
@@ -126,6 +128,7 @@ class Health:
         self._phase = "play"
         self._counters: dict[str, int] = {}
         self._observers: dict[str, dict[str, Any]] = {}
+        self._changed: dict[tuple[str, str], float] = {}  # (observer, "observations" | "bad_frames") → loop time
         self._watchdog: dict[str, Any] = {"flowing": False, "pings": 0}
 
     # ------------------------------------------------------------------ the loop's side
@@ -154,6 +157,8 @@ class Health:
             if counters is not None:
                 self._counters = dict(counters)
             if observers is not None:
+                for k, v in observers.items():
+                    self._note_skips(k, now, v)
                 self._observers = {k: dict(v) for k, v in observers.items()}
             for name, st in statuses.items():
                 if st.frames != self._seen_frames.get(name, 0):  # frames arrived during this frame
@@ -168,6 +173,13 @@ class Health:
                     "rate_hz": round(window.rate(now, st.frames), 2), "dropped": st.dropped, "bad": st.bad,
                     "last_frame_age_s": None if age is None else round(age, 3),
                 }
+
+    def _note_skips(self, name: str, now: float, figures: Mapping[str, Any]) -> None:
+        """When an observer last observed a frame and last skipped one (loop time)."""
+        before = self._observers.get(name, {})
+        for key in ("observations", "bad_frames"):
+            if figures.get(key, 0) != before.get(key, 0) or (name, key) not in self._changed:
+                self._changed[(name, key)] = now if figures.get(key, 0) else -math.inf
 
     def set_watchdog(self, flowing: bool, pings: int) -> None:
         with self._lock:
@@ -186,6 +198,10 @@ class Health:
         for name, o in self._observers.items():
             if o.get("state", "running") != "running":
                 out.append(f"observer {name} is {o['state']}" + (f": {o['last_error']}" if o.get("last_error") else ""))
+            elif (self._now - self._changed.get((name, "bad_frames"), -math.inf) <= self.stall_s
+                  and self._now - self._changed.get((name, "observations"), -math.inf) > self.stall_s):
+                kinds = ", ".join(o.get("bad_kinds", ())) or "bad data"
+                out.append(f"observer {name} skips its frames ({kinds}; bad frames {o.get('bad_frames', 0)})")
         ended = bool(self._sensors) and all(s["state"] == SensorState.ENDED for s in self._sensors.values())
         since = self.newest_frame_t if self.newest_frame_t is not None else self._t_start
         waited = self._now - (self._now if since is None else since)
@@ -249,7 +265,8 @@ class Health:
                        f"dropped {s['dropped']}  bad {s['bad']}  last {'-' if age is None else f'{age:.1f} s'} ago")
         for name, o in report.get("observers", {}).items():
             out.append(f"observer {name}: {o.get('state', '?')}  crashes {o.get('crashes', 0)}  "
-                       f"restarts {o.get('restarts', 0)}  dropped non-finite {o.get('dropped_non_finite', 0)}")
+                       f"restarts {o.get('restarts', 0)}  dropped non-finite {o.get('dropped_non_finite', 0)}  "
+                       f"bad frames {o.get('bad_frames', 0)}")
         d = report["dropped"]
         out.append(f"dropped: sensor frames {d['sensor_frames']}  late frames {d['late_frames']}  "
                    f"sim {d['sim_seconds']:.2f} s")

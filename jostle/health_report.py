@@ -1,37 +1,32 @@
 """The health report outside the process: a JSON file rewritten atomically every few seconds, and a
 small HTTP endpoint on 127.0.0.1 (``GET /health`` → the JSON; 200 when ok, 503 otherwise). Both
 serve :meth:`jostle.health.Health.report`, the figures the diagnostics overlay shows.
+
+The file is written with ``write_owned``: a FIFO, device (``/dev/full``) or symlink at its path is
+refused by name (one warning line) and never replaced. The endpoint takes a backlog of
+``LISTEN_BACKLOG`` connections, gives each ``CLIENT_TIMEOUT_S`` to send its request, says only
+``jostle-health`` in its ``Server:`` header, and treats a client that resets or closes early as
+nothing worse than a debug line (no traceback).
 """
 
 from __future__ import annotations
 
 import json
 import logging
-import os
+import sys
 import threading
 from collections.abc import Callable
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any
 
+from sensors.untrusted import UntrustedInput, write_owned
+
 log = logging.getLogger("jostle.health")
 
 Report = Callable[[], dict[str, Any]]
-
-
-def write_atomically(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` so that a reader sees the old file or the new one, never half of one
-    (a temporary file beside it, flushed, then ``os.replace``)."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with tmp.open("w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+LISTEN_BACKLOG = 128  # connections waiting to be accepted (socketserver's default is 5)
+CLIENT_TIMEOUT_S = 5.0  # a client that sends no request within this is dropped
 
 
 class HealthFile:
@@ -55,11 +50,13 @@ class HealthFile:
     def write(self) -> bool:
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            write_atomically(self.path, json.dumps(self.report(), indent=1) + "\n")
-        except OSError as e:
-            if self._failure != type(e).__name__:
-                log.warning("health report %s: cannot write: %s", self.path, e)
-            self._failure = type(e).__name__
+            write_owned(self.path, json.dumps(self.report(), indent=1) + "\n")  # never over a special file
+        except (OSError, UntrustedInput) as e:
+            kind = e.problem if isinstance(e, UntrustedInput) else type(e).__name__
+            if self._failure != kind:
+                log.warning("health report %s: cannot write: %s", self.path,
+                            e.problem if isinstance(e, UntrustedInput) else e)
+            self._failure = kind
             return False
         self._failure = None
         self.writes += 1
@@ -73,8 +70,7 @@ class HealthServer:
     def __init__(self, report: Report, port: int, host: str = "127.0.0.1") -> None:
         self.report = report
         handler = _handler(report)
-        self._server = ThreadingHTTPServer((host, port), handler)
-        self._server.daemon_threads = True
+        self._server = _QuietServer((host, port), handler)
         self._thread = threading.Thread(target=self._server.serve_forever, kwargs={"poll_interval": 0.2},
                                         name="jostle-health-http", daemon=True)
         self._started = False
@@ -107,9 +103,28 @@ class HealthServer:
         self.close()
 
 
+class _QuietServer(ThreadingHTTPServer):
+    """A threading HTTP server with a real backlog, whose per-connection errors are one log line."""
+
+    request_queue_size = LISTEN_BACKLOG
+    daemon_threads = True
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        e = sys.exc_info()[1]
+        if isinstance(e, ConnectionError | TimeoutError):  # the client reset, closed or went quiet
+            log.debug("health http: %s from %s", type(e).__name__, client_address)
+        else:
+            log.warning("health http: %s: %s (from %s)", type(e).__name__, e, client_address)
+
+
 def _handler(report: Report) -> type[BaseHTTPRequestHandler]:
     class HealthHandler(BaseHTTPRequestHandler):
         server_version = "jostle-health"
+        sys_version = ""  # the Server: header names no Python version
+        timeout = CLIENT_TIMEOUT_S
+
+        def version_string(self) -> str:
+            return self.server_version
 
         def do_GET(self) -> None:  # noqa: N802 (http.server's name)
             if self.path.split("?")[0] not in ("/health", "/"):

@@ -1,20 +1,15 @@
-"""An observer that cannot take the show down: crashes are caught, the observer is rebuilt later.
+"""An observer that cannot take the show down: bad frames are skipped, crashes caught and rebuilt.
 
-:class:`ObserverGuard` stands between the main loop and one observer. When ``observe()`` raises, the
-crash is logged (with its traceback the first time that error is seen, printed by the command only
-with ``--debug``; one line after that) and counted; the observer is dropped, and until it is back
-every frame gets an empty observation (a crashed observer must not leave stale people pushing);
-after a back-off (``first_backoff_s``, doubling up to ``max_backoff_s``, reset after
-``healthy_after_s`` without a crash) it is rebuilt from its config.
-A rebuild that itself raises counts as a failed restart and backs off further.
-
-What comes out of a healthy observer is checked too: a contactor or impulse carrying a NaN or
-infinite number is dropped and counted (``dropped_non_finite``), and pad samples with non-finite
-newtons are counted on the way in (``non_finite_inputs``). The test is ``interaction.types.finite``,
-the same one the sim applies to whatever reaches ``World.step``. Times are the loop's clock, so on a
-SimClock the restarts are as deterministic as the rest; :meth:`ObserverGuard.health` returns the
-counters as a frozen :class:`ObserverHealth`, and :meth:`ObserverGuard.never_observed` says when an
-observer was handed frames but returned nothing for any (the run then fails: ``jostle.app``).
+:class:`ObserverGuard` stands between the main loop and one observer. A frame the data makes wrong
+(an image size or pad count other than the frames observed so far, pad forces NaN, infinite or over
+``PAD_MAX_NEWTONS``, or the observer raising ``UntrustedInput``) is skipped: one warning line per
+kind, then counted (``bad_frames``); the observer keeps running. Any other exception is a crash:
+one error line (its record carries the first traceback, shown only with ``--debug``), counted; the
+observer is dropped, every frame gets an empty observation until, after a back-off
+(``first_backoff_s`` doubling to ``max_backoff_s``, reset after ``healthy_after_s``), it is rebuilt.
+A contactor or impulse carrying a NaN or infinite number is dropped and counted
+(``dropped_non_finite``). Times are the loop's clock. :meth:`ObserverGuard.health` returns the
+counters; :meth:`ObserverGuard.never_observed` says when frames came and no observation came out.
 """
 
 from __future__ import annotations
@@ -28,10 +23,13 @@ from typing import Literal
 
 from interaction.observers import Observer
 from interaction.types import BodyObservation, finite
-from sensors.base import Frame, PadSample
+from sensors.base import ColorImage, DepthImage, Frame, PadSample
 from sensors.clock import Clock
+from sensors.untrusted import UntrustedInput, one_line
 
 log = logging.getLogger("jostle.observers")
+
+PAD_MAX_NEWTONS = 20_000.0  # N on one pad, either sign: two tonnes; a person landing a jump gives < 5 kN
 
 GuardState = Literal["running", "restarting"]
 
@@ -46,11 +44,13 @@ class ObserverHealth:
     restarts: int  # successful rebuilds
     failed_restarts: int  # rebuilds that raised
     dropped_non_finite: int  # contactors / impulses dropped for NaN or infinite numbers
-    non_finite_inputs: int  # pad samples with NaN or infinite newtons handed to the observer
+    non_finite_inputs: int  # pad samples with NaN or infinite newtons (skipped, also in bad_frames)
     last_error: str  # one line: "ValueError: ..." ("" if none yet)
     retry_in_s: float  # seconds until the next rebuild (0 while running)
     frames: int = 0  # frames its sensor handed it
-    observations: int = 0  # observations its observer returned (a crash or a wait for a rebuild: none)
+    observations: int = 0  # observations its observer returned (a crash, a wait or a skipped frame: none)
+    bad_frames: int = 0  # frames skipped because of what they hold (see the module docstring)
+    bad_kinds: tuple[str, ...] = ()  # the kinds of bad frames seen, in the order first seen
 
 
 def _signature(e: BaseException) -> tuple[str, str, int]:
@@ -101,6 +101,8 @@ class ObserverGuard:
         self._last_error = ""
         self._frames = 0
         self._observations = 0
+        self._bad: dict[str, int] = {}  # kind of bad frame → frames skipped
+        self._shape: tuple[str, tuple[int, ...]] | None = None  # payload kind and size of good frames
         self.restart_times: list[float] = []  # clock times of the successful rebuilds (the last 64)
 
     # ------------------------------------------------------------------ what the loop reads
@@ -117,17 +119,20 @@ class ObserverGuard:
             restarts=self._restarts, failed_restarts=self._failed_restarts, dropped_non_finite=self._dropped,
             non_finite_inputs=self._non_finite_in, last_error=self._last_error,
             retry_in_s=0.0 if running else max(0.0, self._retry_at - self._clock.now()),
-            frames=self._frames, observations=self._observations,
+            frames=self._frames, observations=self._observations, bad_frames=sum(self._bad.values()),
+            bad_kinds=tuple(self._bad),
         )
 
     def never_observed(self) -> str | None:
         """One line when its sensor handed it frames and it returned no observation for any (it crashed
-        on every one, or could not be rebuilt), else None: such a run did not do its job."""
+        on every one, could not be rebuilt, or every frame was bad), else None: such a run did not do
+        its job."""
         if not self._frames or self._observations:
             return None
         why = f"; last error: {self._last_error}" if self._last_error else ""
+        bad = f", bad frames: {sum(self._bad.values())} ({', '.join(self._bad)})" if self._bad else ""
         return (f"observer {self.name!r} produced nothing from the {self._frames} frames of its sensor "
-                f"(crashes: {self._crashes}, failed rebuilds: {self._failed_restarts}{why})")
+                f"(crashes: {self._crashes}, failed rebuilds: {self._failed_restarts}{bad}{why})")
 
     # ------------------------------------------------------------------ the loop's call
 
@@ -142,16 +147,52 @@ class ObserverGuard:
                 return BodyObservation(t=frame.t)
         elif self._in_a_row and now - self._since >= self.healthy_after_s:
             self._in_a_row = 0  # ran long enough: the next crash backs off from the start again
-        payload = frame.payload
-        if isinstance(payload, PadSample) and not finite(*payload.newtons):
-            self._non_finite_in += 1
+        refused = self._refusal(frame)
+        if refused is not None:
+            self._skip(frame, *refused)
+            return BodyObservation(t=frame.t)
         try:
             obs = self._observer.observe(frame)
+        except UntrustedInput as e:  # the observer says the data is wrong: skip it, keep the observer
+            self._skip(frame, e.source, e.problem)
+            return BodyObservation(t=frame.t)
         except Exception as e:  # any bug in one observer; the loop and the other observers go on
             self._crashed(e, now, "crashed")
             return BodyObservation(t=frame.t)
         self._observations += 1
+        if self._shape is None:
+            self._shape = _shape(frame)
         return self._checked(obs)
+
+    def _refusal(self, frame: Frame) -> tuple[str, str] | None:
+        """(kind, what is wrong) if ``frame`` is not one to observe, else None."""
+        payload = frame.payload
+        shape, before = _shape(frame), self._shape
+        if before is not None and shape != before:  # first: cheap, and a million pads are not looked at
+            if shape[0] == "pads":
+                return "pad count", f"a sample of {shape[1][0]} pads after samples of {before[1][0]}"
+            return "frame size", (f"a {shape[0]} frame of {_size(shape[1])} after frames of {_size(before[1])} "
+                                  "(the size changed mid-stream)")
+        if isinstance(payload, PadSample):
+            newtons = payload.newtons
+            if not newtons:
+                return "pad count", "a pad sample with no pads"
+            if not finite(*newtons):
+                self._non_finite_in += 1
+                return "pad force", "a pad sample with a NaN or infinite force"
+            if max(abs(f) for f in newtons) > PAD_MAX_NEWTONS:
+                return "pad force", (f"a pad force of {max(newtons, key=abs):.3g} N, beyond the "
+                                     f"{PAD_MAX_NEWTONS:g} N a pad can take")
+        return None
+
+    def _skip(self, frame: Frame, kind: str, problem: str) -> None:
+        """Count a frame skipped for what it holds; one warning line the first time of each kind."""
+        first = kind not in self._bad
+        self._bad[kind] = self._bad.get(kind, 0) + 1
+        if first:
+            log.warning("%s", one_line(f"observer {self.name!r}: frame {frame.seq} of sensor {frame.sensor!r} "
+                                       f"skipped: {problem} (frames like it are counted as bad_frames in the "
+                                       "health report, not logged again)"))
 
     def _checked(self, obs: BodyObservation) -> BodyObservation:
         contactors = tuple(c for c in obs.contactors if c.finite)
@@ -207,3 +248,17 @@ class ObserverGuard:
         self.restart_times.append(now)
         del self.restart_times[:-64]
         log.info("observer %r rebuilt after a crash (restart %d)", self.name, self._restarts)
+
+
+def _shape(frame: Frame) -> tuple[str, tuple[int, ...]]:
+    """What must stay the same from frame to frame of one sensor: the image size or the pad count."""
+    p = frame.payload
+    if isinstance(p, ColorImage | DepthImage):
+        return ("color" if isinstance(p, ColorImage) else "depth"), p.size
+    if isinstance(p, PadSample):
+        return "pads", (len(p.newtons),)
+    return type(p).__name__, ()
+
+
+def _size(size: tuple[int, ...]) -> str:
+    return "×".join(str(n) for n in size)

@@ -26,12 +26,14 @@ import logging
 import math
 import re
 import shutil
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
 from sensors.base import Frame
 from sensors.recording.writer import RecordingWriter
+from sensors.untrusted import check_owned
 
 log = logging.getLogger("jostle.record")
 
@@ -103,6 +105,14 @@ def session_files(folder: Path) -> list[tuple[int, Path]]:
         return []
     found = [(int(m.group(1)), p) for p in entries if (m := _NAME.fullmatch(p.name))]
     return sorted(found)
+
+
+def _regular(path: Path) -> bool:
+    """A regular file, not a symlink: a FIFO, device or link named like a session file is not ours."""
+    try:
+        return stat.S_ISREG(path.lstat().st_mode)
+    except OSError:
+        return False
 
 
 def _size(path: Path) -> int:
@@ -187,7 +197,7 @@ class SessionRecorder:
             return None
         existing = session_files(self.folder)
         self._number = max([self._number, *(n for n, _ in existing)]) + 1
-        path = self.folder / f"session-{self._number:06d}.mcap"
+        path = check_owned(self.folder / f"session-{self._number:06d}.mcap")  # never into a FIFO or device
         self._writer = RecordingWriter(path, metadata={"session_file": str(self._number), **self._metadata},
                                        jpeg_quality=self.config.jpeg_quality, chunk_size=self._chunk)
         self._file_t0 = t
@@ -199,7 +209,7 @@ class SessionRecorder:
         quota, or less when the disk is short (what the session files hold plus the free space, less
         ``min_free_mb``); a file is a quarter of the budget. False (recording stopped) when the
         budget is too small for even a small file."""
-        files = session_files(self.folder)
+        files = [(n, p) for n, p in session_files(self.folder) if _regular(p)]  # only ours are deleted
         used = sum(_size(p) for _, p in files)
         free = shutil.disk_usage(self.folder).free
         budget = min(self.quota_bytes, used + free - int(self.config.min_free_mb * _MB))

@@ -221,7 +221,7 @@ def test_a_restarting_observer_is_a_problem_and_shows_on_the_panel() -> None:
         health.update(0.0, world.snapshot(), None, {}, observers={"webcam": crashed}, wall=0.0)
         report = health.report()
         assert report["problems"] == ["observer webcam is restarting: ValueError: bad blob"]
-        assert "observer webcam: restarting  crashes 2  restarts 1  dropped non-finite 0" in Health.lines(report)
+        assert "observer webcam: restarting  crashes 2  restarts 1  dropped non-finite 0  bad frames 0" in Health.lines(report)
         health.update(0.1, world.snapshot(), None, {}, observers={"webcam": {**crashed, "state": "running"}},
                       wall=0.1)
     assert health.report()["status"] == "ok"

@@ -58,7 +58,7 @@ def test_install_writes_a_notify_unit_with_the_configs_watchdog(
     assert exec_start[:3] == [str(JOSTLE), "run", str(path.resolve())]
     assert Path(exec_start[0]).is_absolute() and os.access(exec_start[0], os.X_OK)
     assert "--kiosk" in exec_start and "--no-video" in exec_start  # weeks of video would fill the disk
-    assert "DISPLAY=:3" in f["Environment"]
+    assert '"DISPLAY=:3"' in f["Environment"]  # quoted by systemd's rules
     assert f["WantedBy"] == ["default.target"]
     short = name.removesuffix(".service")
     assert f"systemctl --user daemon-reload && systemctl --user enable --now {short}" in out

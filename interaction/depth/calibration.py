@@ -85,6 +85,22 @@ class DepthCalibration:
         """Stage points (..., 3) → camera points (..., 3)."""
         return (np.asarray(points, dtype=np.float64) - self.centre) @ self.matrix
 
+    def fits_image(self, size: tuple[int, int]) -> str | None:
+        """None if depth frames of ``size`` (width, height) are the ones this calibration was made for
+        (or it names none); a warning (one line) if only the scale differs: the same camera at another
+        resolution, still right since the calibration is in metres and each frame brings its
+        intrinsics. Another aspect ratio (another camera or mode) raises ``UntrustedInput``."""
+        if self.image_size is None or tuple(size) == tuple(self.image_size):
+            return None
+        from sensors.untrusted import UntrustedInput
+
+        (w0, h0), (w, h) = self.image_size, size
+        made = f"the camera's depth frame is {w}×{h}, but the calibration was made for {w0}×{h0}"
+        if abs(w * h0 - w0 * h) > 0.01 * w0 * h:
+            raise UntrustedInput("depth calibration", f"{made} (another aspect ratio: another camera or mode); "
+                                                      "calibrate again with `jostle calibrate depth`")
+        return f"depth calibration: {made}: the same aspect ratio, taken as the same camera at another resolution"
+
     # ------------------------------------------------------------ TOML
 
     @classmethod

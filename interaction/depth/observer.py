@@ -19,6 +19,7 @@ Latency, cost and velocity figures, and what was tried: docs/notes/depth.md.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 
@@ -39,6 +40,7 @@ from sensors.base import DepthImage, Frame
 __all__ = ["DepthCalibration", "DepthObserver", "DepthObserverConfig"]
 
 
+log = logging.getLogger("interaction.depth")
 _KERNEL5 = np.ones((5, 5), np.uint8)
 _LIMBS = {"hand": 0.07, "foot": 0.08}  # the parts followed by LimbTracker, and their contactors' radii
 
@@ -56,6 +58,7 @@ class DepthObserver:
     def __init__(self, config: DepthObserverConfig, calibration: DepthCalibration) -> None:
         self._cfg = config
         self._cal = calibration
+        self._size_checked: tuple[int, int] | None = None  # the frame size last checked against the calibration
         self._rays: tuple[tuple[int, int, int, tuple[float, ...]], np.ndarray] | None = None
         self._arrays: _SampledArrays | None = None  # the per-frame work arrays, made by the first frame
         cfg = config
@@ -120,12 +123,11 @@ class DepthObserver:
         if not isinstance(p, DepthImage):
             raise ValueError(f"DepthObserver: frame {frame.seq} from sensor {frame.sensor!r} carries a "
                              f"{frame.kind} payload; expected a depth image")
-        want = self._cal.image_size
-        size = (int(p.depth_mm.shape[1]), int(p.depth_mm.shape[0])) if p.depth_mm.ndim == 2 else None
-        if want is not None and size != want:  # a calibration made for another camera mode is wrong everywhere
-            raise ValueError(f"DepthObserver: frame {frame.seq} from sensor {frame.sensor!r} is "
-                             f"{'×'.join(map(str, size)) if size else 'not 2-D'}, but the calibration was made "
-                             f"for {want[0]}×{want[1]}")
+        if p.size != self._size_checked:
+            note = self._cal.fits_image(p.size)  # another aspect ratio raises (the frame is refused)
+            self._size_checked = p.size
+            if note is not None:
+                log.warning("%s", note)
         cfg = self._cfg
         pts, cell = self._stage_points(p)
         self._fine.set_frame(p)

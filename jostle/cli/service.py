@@ -17,6 +17,7 @@ from jostle.cli.service_unit import (
     unit_name,
     unit_text,
 )
+from sensors.untrusted import UntrustedInput, read_bytes, systemd_text, write_owned
 
 __all__ = ["OPERATOR_EXIT", "add", "cmd_install", "cmd_uninstall"]
 
@@ -86,10 +87,25 @@ def _systemctl(user: bool) -> str:
     return "systemctl --user" if user else "sudo systemctl"
 
 
+def _refused(e: UntrustedInput) -> Exception:
+    """A value the unit cannot hold, as the command line's one-line user error."""
+    from jostle.errors import UsageError
+
+    return UsageError(str(e))
+
+
 def cmd_install(args: argparse.Namespace) -> int:
+    try:
+        return _install(args)
+    except UntrustedInput as e:
+        raise _refused(e) from None
+
+
+def _install(args: argparse.Namespace) -> int:
     from jostle.config import load_config
 
     config_path = Path(os.path.abspath(args.config))
+    systemd_text(str(config_path), "config")  # a newline in the path: refused before the file is read
     config = load_config(config_path)  # a unit for a config that does not load would only crash-loop
     home = Path.home()
     name = unit_name(config_path, args.name)
@@ -107,12 +123,15 @@ def cmd_install(args: argparse.Namespace) -> int:
         print(f"# would write {target}:")
         print(text, end="")
     else:
-        if target.exists() and not args.force and target.read_text() != text:
+        if os.path.lexists(target) and not args.force and read_bytes(target, 1 << 20, "unit file") != text.encode():
             from jostle.errors import UsageError
 
             raise UsageError(f"{target}: a unit of that name exists; use --force to replace it (or --name)")
-        unit_dir.mkdir(parents=True, exist_ok=True)
-        target.write_text(text)
+        try:
+            unit_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise UntrustedInput(unit_dir, f"cannot make the folder for the unit: {e.strerror or type(e).__name__}") from None
+        write_owned(target, text)  # a FIFO, device or symlink there is refused, never replaced
         print(f"jostle: wrote {target}")
     short = name.removesuffix(".service")
     ctl = _systemctl(args.user)
@@ -129,7 +148,10 @@ def cmd_install(args: argparse.Namespace) -> int:
 
 def cmd_uninstall(args: argparse.Namespace) -> int:
     given = Path(args.config)
-    name = unit_name(given, args.name if args.name is not None else (None if given.suffix == ".toml" else args.config))
+    try:
+        name = unit_name(given, args.name if args.name is not None else (None if given.suffix == ".toml" else args.config))
+    except UntrustedInput as e:
+        raise _refused(e) from None
     unit_dir = args.unit_dir or default_unit_dir(args.user, Path.home())
     target = unit_dir / name
     links = [p for p in unit_dir.glob(f"*.wants/{name}") if p.is_symlink() or p.exists()]

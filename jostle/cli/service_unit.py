@@ -1,7 +1,9 @@
 """A systemd unit that keeps one installation running for weeks: ``Type=notify`` (the loop says READY
 and pings the watchdog only while frames flow), ``Restart=always``, ``WatchdogSec``/``RestartSec``
 from the config's ``[health]``, no limit on restarts, the display for a kiosk. Pure text; writing it
-is ``jostle service install`` (``jostle.cli.service``)."""
+is ``jostle service install`` (``jostle.cli.service``). Every value is written by systemd's own
+quoting rules for its position (``sensors.untrusted``'s ``systemd_*``); a value that cannot be said
+exactly (a newline, a control character) raises ``UntrustedInput`` naming the flag."""
 
 from __future__ import annotations
 
@@ -11,25 +13,34 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Literal
 
+from sensors.untrusted import (
+    UntrustedInput,
+    shorten,
+    systemd_environment,
+    systemd_exec_argument,
+    systemd_exec_path,
+    systemd_path,
+    systemd_text,
+    systemd_user,
+)
+
 OPERATOR_EXIT = 10  # `jostle run` exit status after the operator's exit keys: systemd leaves it stopped
 Mode = Literal["kiosk", "window", "headless"]
 
 
 def unit_name(config: Path, name: str | None = None) -> str:
-    """``jostle-NAME.service``, NAME from ``name`` or the config's file name (letters, digits, - and _)."""
-    base = (name if name is not None else config.stem).removesuffix(".service").removeprefix("jostle-")
-    clean = re.sub(r"[^A-Za-z0-9_-]+", "-", base).strip("-")
+    """``jostle-NAME.service``, NAME from ``name`` (``--name``) or the config's file name, every run of
+    other characters than letters, digits, - and _ made one '-'. A name with a control character, or
+    none of those characters left, is refused (``UntrustedInput`` naming ``--name`` or the config)."""
+    what = "--name" if name is not None else str(config)
+    given = name if name is not None else config.stem
+    systemd_text(given, what)  # refuses newlines and other control characters by name
+    base = given.removesuffix(".service").removeprefix("jostle-")
+    clean = re.sub(r"[^A-Za-z0-9_-]+", "-", base).strip("-")[:200]
     if not clean:
-        raise ValueError(f"name: expected letters, digits, '-' or '_', got {base!r}")
+        raise UntrustedInput(what, f"{shorten(base)} leaves no letters, digits, '-' or '_' for the unit's name"
+                                   + ("" if name is not None else "; give one with --name"))
     return f"jostle-{clean}.service"
-
-
-def _arg(value: str | Path) -> str:
-    """One ExecStart argument: double-quoted when needed, '%' doubled (systemd's specifier escape)."""
-    text = str(value).replace("%", "%%")
-    if re.fullmatch(r"[A-Za-z0-9_@%+=:,./-]+", text):
-        return text
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 @dataclass(frozen=True)
@@ -54,39 +65,62 @@ class UnitSpec:
                 raise ValueError(f"{field}: expected an absolute path, got {getattr(self, field)}")
         if not self.user_unit and not self.run_as:
             raise ValueError("run_as: a system unit needs the user to run as")
+        _settings(self)  # every value checked now: a spec that exists can be written
+
+
+def _settings(spec: UnitSpec) -> dict[str, str]:
+    """Every value the unit takes from outside, quoted for its setting; ``UntrustedInput`` names the
+    flag of the first that cannot be written."""
+    short = spec.name.removesuffix(".service").removeprefix("jostle-")
+    command = [systemd_exec_path(spec.jostle, "jostle command"), "run",
+               systemd_exec_argument(spec.config, "config"), f"--{spec.mode}", "--no-video", "--quiet",
+               "--out", systemd_exec_argument(spec.out_dir, "--out")]
+    out = {
+        "Description": systemd_text(f"jostle installation {short} ({spec.config.name})", "config"),
+        "ExecStart": " ".join(command),
+        "WorkingDirectory": systemd_path(spec.config.parent, "config"),
+        "DISPLAY": systemd_environment("DISPLAY", spec.display, "--display (or $DISPLAY)"),
+        "XAUTHORITY": systemd_environment("XAUTHORITY", spec.xauthority, "$XAUTHORITY"),
+        "User": "" if spec.user_unit else systemd_user(spec.run_as, "--run-as"),
+        "StateDirectory": "",
+    }
+    if not spec.user_unit and spec.out_dir.parent == Path("/var/lib/jostle"):
+        if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", spec.out_dir.name):
+            raise UntrustedInput("--out", f"{shorten(str(spec.out_dir), 80)}: a folder in /var/lib/jostle is named "
+                                          "with letters, digits, '.', '_' or '-' (systemd's StateDirectory=)")
+        out["StateDirectory"] = f"jostle/{spec.out_dir.name}"  # created for, and owned by, User=
+    return out
 
 
 def unit_text(spec: UnitSpec) -> str:
     """The unit file's text."""
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
-    command = " ".join(_arg(a) for a in (spec.jostle, "run", spec.config, f"--{spec.mode}", "--no-video",
-                                          "--quiet", "--out", spec.out_dir))
+    v = _settings(spec)
     graphical = spec.mode != "headless"
     after = "graphical-session.target" if spec.user_unit else ("graphical.target" if graphical else "network.target")
     lines = [
         f"# Written by `jostle service install` on {stamp}. Change the installation's config, not this",
         "# file; run `jostle service install` again to change how it is run.",
         "[Unit]",
-        f"Description=jostle installation {spec.name.removesuffix('.service').removeprefix('jostle-')} "
-        f"({spec.config.name})",
+        f"Description={v['Description']}",
         f"After={after}",
         "StartLimitIntervalSec=0",  # never give up restarting
         "",
         "[Service]",
         "Type=notify",
         "NotifyAccess=main",
-        f"ExecStart={command}",
-        f"WorkingDirectory={_arg(spec.config.parent)}",
+        f"ExecStart={v['ExecStart']}",
+        f"WorkingDirectory={v['WorkingDirectory']}",
         "Environment=PYTHONUNBUFFERED=1",
     ]
     if graphical:
-        lines.append(f"Environment=DISPLAY={spec.display}")
+        lines.append(f"Environment={v['DISPLAY']}")
         if spec.xauthority:
-            lines.append(f"Environment=XAUTHORITY={_arg(spec.xauthority)}")
+            lines.append(f"Environment={v['XAUTHORITY']}")
     if not spec.user_unit:
-        lines.append(f"User={spec.run_as}")
-        if spec.out_dir.parent == Path("/var/lib/jostle"):
-            lines.append(f"StateDirectory=jostle/{spec.out_dir.name}")  # created for, and owned by, User=
+        lines.append(f"User={v['User']}")
+        if v["StateDirectory"]:
+            lines.append(f"StateDirectory={v['StateDirectory']}")
     lines += [
         "Restart=always",
         f"RestartSec={spec.restart_s:g}",

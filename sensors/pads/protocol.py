@@ -18,6 +18,7 @@ This module imports no hardware backend.
 from __future__ import annotations
 
 import binascii
+import re
 import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -31,6 +32,7 @@ _HEAD = 4  # header, seq (2), pad count
 _CRC = 2
 _INT32 = (-(2**31), 2**31 - 1)
 _CSV_FIELD_CHARS = 24  # generous: "-2147483648" is 11, spaces allowed around fields
+_CSV_NUMBER = re.compile(rb"[ \t]*[+-]?[0-9]{1,20}[ \t]*")  # plain decimal: no '_', no '0x', no other digits
 
 
 class WireSample(NamedTuple):
@@ -166,10 +168,9 @@ def _csv_decoder(pads: int) -> Decoder:
         n = len(fields)
         if n != pads and n != pads + 1:
             raise BadMessage(f"a line of {n} fields; expected {pads} counts, or seq and {pads} counts")
-        try:
-            values = [int(f) for f in fields]
-        except ValueError:
-            raise BadMessage("a field is not a whole number") from None
+        if not all(_CSV_NUMBER.fullmatch(f) for f in fields):  # int() also takes 1_000 (1000), 2_2 (22)
+            raise BadMessage("a field is not a whole number in plain decimal (digits, an optional sign)")
+        values = [int(f) for f in fields]
         seq: int | None = None
         if n == pads + 1:
             seq = values.pop(0)

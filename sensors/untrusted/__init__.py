@@ -4,7 +4,7 @@ Readers open regular files only (``open_regular``, ``read_bytes``, ``read_text``
 before parsing (``load_toml``, ``load_json``), check images' declared sizes before decoding
 (``check_image``, ``check_raw_image``), decompress within a budget (``decompress``, ``budget_for``),
 take numbers finite and in range (``finite``, ``whole``) and time monotone (``Timeline``). Writers
-replace only regular files (``write_owned``); systemd units quote by systemd's rules (``systemd_*``).
+replace only regular files (``write_owned``, ``check_owned``); systemd units quote by systemd's rules (``systemd_*``).
 Every refusal is one ``UntrustedInput`` (a ``ValueError``, one line ``SOURCE: PROBLEM``, a user
 error). The numbers live in ``sensors.untrusted.limits``. Imports only the standard library.
 """
@@ -25,7 +25,7 @@ from sensors.untrusted.systemd import (
     systemd_text,
     systemd_user,
 )
-from sensors.untrusted.writes import write_owned
+from sensors.untrusted.writes import check_owned, write_owned
 
 __all__ = [
     "InputLimits",
@@ -34,6 +34,7 @@ __all__ = [
     "UntrustedInput",
     "budget_for",
     "check_image",
+    "check_owned",
     "check_raw_image",
     "decode_text",
     "decompress",

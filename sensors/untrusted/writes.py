@@ -53,6 +53,14 @@ def write_owned(path: Pathish, data: bytes | str, mode: int = 0o644) -> Path:
     return target
 
 
+def check_owned(path: Pathish) -> Path:
+    """``path`` if a writer may create or replace it: nothing there, or a regular file (a symlink is
+    not followed). For writers that stream (a recording) and cannot use ``write_owned``; anything
+    else there is refused by name (``UntrustedInput``) and left as it is."""
+    _existing_mode(Path(path))
+    return Path(path)
+
+
 def _existing_mode(target: Path) -> int | None:
     """The permission bits of the regular file at ``target``, None if nothing is there; anything
     else there (not followed if a symlink) is refused by name."""
