@@ -38,6 +38,7 @@ from sensors.recording.codec import (
     schema_definition,
 )
 from sensors.recording.info import METADATA_NAME
+from sensors.untrusted import check_owned
 
 _RESERVED_METADATA = ("created", "jostle_version")
 _UINT32 = 2**32
@@ -85,7 +86,7 @@ class RecordingWriter:
                 raise ValueError(f"metadata: key {key!r} is written by jostle itself")
             if not isinstance(key, str) or not isinstance(value, str):
                 raise ValueError(f"metadata: keys and values must be strings, got {key!r}: {value!r}")
-        self.path = Path(path)
+        self.path = check_owned(path)  # a FIFO, device or symlink there is refused by name, never opened
         self._jpeg_quality = jpeg_quality
         self._color_format: ColorFormat = color_format
         self._flush_ns = seconds_to_ns(flush_interval_s)
