@@ -32,12 +32,12 @@ class ObserverType:
 
 
 def _build_webcam(config: Any, calibration: Path | None, sensor: str) -> Observer:
-    from interaction.webcam.calibration import Calibration
+    from interaction.webcam.floor_calibration import load_webcam_calibration
     from interaction.webcam.observer import WebcamObserver
 
     if not isinstance(config, WebcamObserverConfig) or calibration is None:
         raise TypeError("webcam observer: expected a WebcamObserverConfig and a calibration file")
-    return WebcamObserver(config, Calibration.load(calibration))
+    return WebcamObserver(config, load_webcam_calibration(calibration))
 
 
 def _build_pads(config: Any, calibration: Path | None, sensor: str) -> Observer:

@@ -1,0 +1,119 @@
+"""Webcam people placed on a floor calibration: feet on the floor, the body upright above them.
+
+The observer (:mod:`interaction.webcam.observer`) finds a person's outline points, feet and keypoint
+limbs in the image; here they get stage positions through a :class:`FloorCalibration`. The feet go
+through the floor at the height of a shoe's middle (``FOOT_MIDDLE_M``); the person's ground point is
+their feet's middle (else the outline's bottom middle), and everything else lands on the upright
+plane through that ground point facing the camera, so a head is placed along the vertical above the
+feet and a person's y is their depth. Velocities are the optical flow's displacement mapped the
+same way (with a y part). Points whose ray misses their plane are left out.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from interaction.types import Contactor
+from interaction.webcam.config import WebcamObserverConfig
+from interaction.webcam.floor_calibration import FOOT_MIDDLE_M, FloorCalibration, PersonPlane
+from interaction.webcam.people_flow import median_flow
+from interaction.webcam.pose import LimbPoint
+
+__all__ = ["FloorCalibration", "FloorPeople", "flow_back"]
+
+_RADIUS_PER_SPACING = 0.6  # as the observer's: neighbouring outline contactors overlap a little
+_KEYPOINT_STEP_S = 0.01  # a keypoint's pixel velocity is mapped over this time step
+
+
+class FloorPeople:
+    """Stage contactors of webcam people on a floor calibration; remembers each person's upright
+    plane from :meth:`body` for their keypoint limbs (:meth:`limbs`) in the same frame."""
+
+    def __init__(self, calibration: FloorCalibration, config: WebcamObserverConfig) -> None:
+        self.calibration = calibration
+        self._cfg = config
+        self._planes: dict[int, PersonPlane] = {}
+
+    def plane(self, person: int) -> PersonPlane | None:
+        """The upright plane ``person`` was last placed on."""
+        return self._planes.get(person)
+
+    def body(self, person: int, parts: list[str], uv: np.ndarray, n_feet: int, outline: np.ndarray,
+             back: np.ndarray | None, dt: float) -> list[Contactor]:
+        """One person's contactors from input pixels ``uv`` (N, 2) named ``parts``, the last ``n_feet``
+        the feet; ``outline`` (M, 2) input pixels; ``back`` (N, 2) where each point was a frame (``dt``
+        seconds) before, relative to now, or None (no velocity)."""
+        cal, cfg = self.calibration, self._cfg
+        self._planes.pop(person, None)
+        on_floor = np.arange(len(uv)) >= len(uv) - n_feet
+        feet = cal.image_to_floor(uv[on_floor], FOOT_MIDDLE_M)
+        feet = feet[np.isfinite(feet).all(axis=1)]
+        if len(feet):
+            ground = feet[:, :2].mean(axis=0)
+        else:  # no feet found: the outline's bottom middle (too near when the frame cuts the legs)
+            pts = np.asarray(outline, dtype=np.float64).reshape(-1, 2)
+            bottom = pts[pts[:, 1] >= pts[:, 1].max() - 1.0]
+            ground = cal.image_to_floor(np.array([[bottom[:, 0].mean(), bottom[:, 1].max()]]))[0, :2]
+            if not np.isfinite(ground).all():
+                return []
+        plane = self._planes[person] = cal.person((float(ground[0]), float(ground[1])))
+        if cfg.contactor_radius_m > 0:
+            radius = np.full(len(parts), cfg.contactor_radius_m)
+        else:
+            radius = _RADIUS_PER_SPACING * cfg.contour_spacing_px * plane.metres_per_pixel(uv)
+        to_stage = _mapping(cal, plane, on_floor)
+        pos = to_stage(uv)
+        vel = (pos - to_stage(uv + back)) / dt if back is not None and dt > 0 else np.zeros_like(pos)
+        return _contactors(person, parts, pos, vel, radius, cal.half_depth)
+
+    def limbs(self, person: int, limbs: list[LimbPoint], uv: np.ndarray, back: np.ndarray | None,
+              dt: float) -> list[Contactor]:
+        """Keypoint hands and feet (``uv`` (N, 2) their input pixels) on the plane :meth:`body` placed the
+        person on this frame (none without one). Velocity: the flow's ``back`` over ``dt``, else the
+        keypoints' own pixel velocity."""
+        plane = self._planes.get(person)
+        if plane is None:
+            return []
+        to_stage = _mapping(self.calibration, plane, np.array([limb.part.endswith("foot") for limb in limbs]))
+        pos = to_stage(uv)
+        if back is not None and dt > 0:
+            vel = (pos - to_stage(uv + back)) / dt
+        else:
+            step = _KEYPOINT_STEP_S * np.array([limb.velocity for limb in limbs], dtype=np.float64)
+            vel = (to_stage(uv + step) - pos) / _KEYPOINT_STEP_S
+        radius = np.full(len(limbs), self._cfg.pose_radius_m)
+        return _contactors(person, [limb.part for limb in limbs], pos, vel, radius, self.calibration.half_depth)
+
+
+def flow_back(flow_px: np.ndarray | None, people: np.ndarray, uv_px: np.ndarray, window_px: int, scale: float,
+              dt: float) -> np.ndarray | None:
+    """Where points (work pixels ``uv_px``) were a frame before, relative to now, in input pixels
+    (N, 2), from the median backward flow ``flow_px`` (work pixels) over the person's pixels near each
+    (``scale``: work pixels per input pixel); None without flow or interval."""
+    if flow_px is None or dt <= 0:
+        return None
+    return np.asarray(median_flow(flow_px, people, uv_px, window_px) / scale)
+
+
+def _mapping(cal: FloorCalibration, plane: PersonPlane, on_floor: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """Pixels (N, 2) → stage (N, 3): rows ``on_floor`` through the floor at a shoe's middle, the rest
+    onto ``plane``."""
+    def to_stage(uv: np.ndarray) -> np.ndarray:
+        out = plane.image_to_stage(uv)
+        if on_floor.any():
+            out[on_floor] = cal.image_to_floor(uv[on_floor], FOOT_MIDDLE_M)
+        return out
+    return to_stage
+
+
+def _contactors(person: int, parts: list[str], pos: np.ndarray, vel: np.ndarray, radius: np.ndarray,
+                half_depth: float) -> list[Contactor]:
+    out = []
+    vel = np.nan_to_num(vel)
+    for part, p, v, r in zip(parts, pos.tolist(), vel.tolist(), radius.tolist(), strict=True):
+        if all(map(math.isfinite, p)) and math.isfinite(r):
+            out.append(Contactor(person, part, (p[0], p[1], p[2]), (v[0], v[1], v[2]), r, half_depth))
+    return out
