@@ -25,6 +25,7 @@ from interaction.webcam.pose import LimbPoint
 __all__ = ["FloorCalibration", "FloorPeople", "flow_back"]
 
 _RADIUS_PER_SPACING = 0.6  # as the observer's: neighbouring outline contactors overlap a little
+_SAME_SHOE_M = 0.15  # feet found nearer than this on the floor are pieces of one shoe (from above it is long)
 _KEYPOINT_STEP_S = 0.01  # a keypoint's pixel velocity is mapped over this time step
 
 
@@ -67,7 +68,9 @@ class FloorPeople:
         to_stage = _mapping(cal, plane, on_floor)
         pos = to_stage(uv)
         vel = (pos - to_stage(uv + back)) / dt if back is not None and dt > 0 else np.zeros_like(pos)
-        return _contactors(person, parts, pos, vel, radius, cal.half_depth)
+        keep = _one_per_shoe(pos, on_floor)
+        return _contactors(person, [p for p, k in zip(parts, keep, strict=True) if k], pos[keep], vel[keep],
+                           radius[keep], cal.half_depth)
 
     def limbs(self, person: int, limbs: list[LimbPoint], uv: np.ndarray, back: np.ndarray | None,
               dt: float) -> list[Contactor]:
@@ -107,6 +110,21 @@ def _mapping(cal: FloorCalibration, plane: PersonPlane, on_floor: np.ndarray) ->
             out[on_floor] = cal.image_to_floor(uv[on_floor], FOOT_MIDDLE_M)
         return out
     return to_stage
+
+
+def _one_per_shoe(pos: np.ndarray, on_floor: np.ndarray) -> np.ndarray:
+    """Which rows to keep (bool (N,)) when feet (rows ``on_floor``) nearer than ``_SAME_SHOE_M`` on the
+    floor are one shoe: the first of them is kept, moved (in ``pos``, with the others' mean)."""
+    keep = np.ones(len(pos), bool)
+    rows = np.flatnonzero(on_floor)
+    for i, a in enumerate(rows):
+        if not keep[a]:
+            continue
+        same = [b for b in rows[i + 1:] if keep[b] and np.hypot(*(pos[b, :2] - pos[a, :2])) < _SAME_SHOE_M]
+        if same:
+            pos[a] = pos[[a, *same]].mean(axis=0)
+            keep[same] = False
+    return keep
 
 
 def _contactors(person: int, parts: list[str], pos: np.ndarray, vel: np.ndarray, radius: np.ndarray,
