@@ -236,7 +236,7 @@ def camera_from_floor(
         f2 = 1.0 / w_inv if w_inv > 0 else -1.0
         if not (math.isfinite(f2) and f2 > 0):
             raise CalibrationError("a floor seen from straight above or edge-on does not tell the camera's focal "
-                                   "length: give it (the camera's field of view), or tilt the camera toward the stage")
+                                   "length")
         focal_px = math.sqrt(f2)
     f = float(focal_px)
     kinv = np.diag([1.0 / f, 1.0 / f, 1.0])
