@@ -20,6 +20,7 @@ from interaction.webcam.floor_points import fit_floor_points
 from jostle.bench.truth import body_part_centres
 from jostle.performer.config import PerformerConfig
 from jostle.performer.performer import PerformerSensor
+from sensors.base import ColorImage, Frame
 from sensors.clock import SimClock
 
 W, H = 320, 240
@@ -107,6 +108,13 @@ def test_the_observer_table_builds_a_floor_observer_from_its_file(tmp_path: Path
     assert isinstance(observer, WebcamObserver)
     # what the silhouette is drawn with: the floor calibration's upright plane, of the same size
     assert isinstance(observer.calibration, Calibration) and observer.calibration.image_size == (W, H)
+
+
+def test_a_frame_of_another_size_than_the_floor_calibration_is_refused() -> None:
+    observer = WebcamObserver(WebcamObserverConfig(pose=False), calibrations()["exact"])
+    frame = Frame("webcam", 0.0, 0, ColorImage(np.zeros((120, 160, 3), np.uint8)))
+    with pytest.raises(ValueError, match="is 160×120, but the calibration was made for 320×240"):
+        observer.observe(frame)
 
 
 @pytest.mark.slow

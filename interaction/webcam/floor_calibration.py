@@ -135,9 +135,12 @@ class FloorCalibration:
             plane_y = y if math.isfinite(y) else 0.0
         p = self._p
         to_image = np.column_stack([p[:, 0], p[:, 2], p[:, 3] + plane_y * p[:, 1]])
-        h_inv = np.linalg.inv(to_image)
-        return Calibration(tuple(float(x) for x in round_off_zeros(h_inv / h_inv[2, 2]).ravel()), plane_y,
-                           self.half_depth, self.image_size)
+        m = np.linalg.inv(to_image)
+        h_inv = tuple(float(x) for x in round_off_zeros(m / m[2, 2]).ravel())
+        try:
+            return Calibration(h_inv, plane_y, self.half_depth, self.image_size)
+        except ValueError:  # the plane's horizon crosses the image (a turned camera): drawn without the size check
+            return Calibration(h_inv, plane_y, self.half_depth, None)
 
     # ------------------------------------------------------------ files
 

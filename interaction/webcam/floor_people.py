@@ -26,7 +26,8 @@ __all__ = ["FloorCalibration", "FloorPeople", "flow_back"]
 
 _RADIUS_PER_SPACING = 0.6  # as the observer's: neighbouring outline contactors overlap a little
 _SAME_SHOE_M = 0.15  # feet found nearer than this on the floor are pieces of one shoe (from above it is long)
-_KEYPOINT_STEP_S = 0.01  # a keypoint's pixel velocity is mapped over this time step
+_KEYPOINT_STEP_S = 0.01
+_MAX_REACH_M = 100.0  # a point placed farther from the stage origin is a ray that grazed its plane  # a keypoint's pixel velocity is mapped over this time step
 
 
 class FloorPeople:
@@ -129,9 +130,11 @@ def _one_per_shoe(pos: np.ndarray, on_floor: np.ndarray) -> np.ndarray:
 
 def _contactors(person: int, parts: list[str], pos: np.ndarray, vel: np.ndarray, radius: np.ndarray,
                 half_depth: float) -> list[Contactor]:
+    """Contactors of the points placed within ``_MAX_REACH_M`` of the stage origin (a ray grazing its
+    plane lands far off); a velocity that is not finite (its point's ray missed) is 0."""
     out = []
-    vel = np.nan_to_num(vel)
+    vel = np.nan_to_num(vel, nan=0.0, posinf=0.0, neginf=0.0)
     for part, p, v, r in zip(parts, pos.tolist(), vel.tolist(), radius.tolist(), strict=True):
-        if all(map(math.isfinite, p)) and math.isfinite(r):
+        if all(map(math.isfinite, p)) and math.hypot(*p) < _MAX_REACH_M and math.isfinite(r):
             out.append(Contactor(person, part, (p[0], p[1], p[2]), (v[0], v[1], v[2]), r, half_depth))
     return out

@@ -225,7 +225,7 @@ class WebcamObserver:
                 f"got {bgr.dtype} {bgr.shape}"
             )
         size = p.size
-        want = self._cal.image_size
+        want = (self._floor.calibration if self._floor is not None else self._cal).image_size
         if want is not None and size != want:
             raise ValueError(
                 f"WebcamObserver: frame {frame.seq} from sensor {frame.sensor!r} is {size[0]}×{size[1]}, "
