@@ -3,7 +3,8 @@
 The observer (:mod:`interaction.webcam.observer`) finds a person's outline points, feet and keypoint
 limbs in the image; here they get stage positions through a :class:`FloorCalibration`. The feet go
 through the floor at the height of a shoe's middle (``FOOT_MIDDLE_M``); the person's ground point is
-their feet's middle (else the outline's bottom middle), and everything else lands on the upright
+their feet's middle (else the outline's bottom middle); a foot is placed from its sole's near edge
+(:func:`_shoe_middles`); everything else lands on the upright
 plane through that ground point facing the camera, so a head is placed along the vertical above the
 feet and a person's y is their depth. Velocities are the optical flow's displacement mapped the
 same way (with a y part). Points whose ray misses their plane are left out.
@@ -26,6 +27,8 @@ __all__ = ["FloorCalibration", "FloorPeople", "flow_back"]
 
 _RADIUS_PER_SPACING = 0.6  # as the observer's: neighbouring outline contactors overlap a little
 _SAME_SHOE_M = 0.15  # feet found nearer than this on the floor are pieces of one shoe (from above it is long)
+_SOLE_WINDOW_PX = 2.0  # a foot's sole: the outline's lowest point this many columns either side of it (input px)
+_SHOE_HALF_WIDTH_M = 0.03  # the shoe's middle beyond its sole's near edge (measured best of 0, 0.03, 0.06 m)
 _KEYPOINT_STEP_S = 0.01
 _MAX_REACH_M = 100.0  # a point placed farther from the stage origin is a ray that grazed its plane  # a keypoint's pixel velocity is mapped over this time step
 
@@ -69,6 +72,7 @@ class FloorPeople:
         to_stage = _mapping(cal, plane, on_floor)
         pos = to_stage(uv)
         vel = (pos - to_stage(uv + back)) / dt if back is not None and dt > 0 else np.zeros_like(pos)
+        pos[on_floor] = _shoe_middles(cal, uv[on_floor], outline)
         keep = _one_per_shoe(pos, on_floor)
         return _contactors(person, [p for p, k in zip(parts, keep, strict=True) if k], pos[keep], vel[keep],
                            radius[keep], cal.half_depth)
@@ -111,6 +115,25 @@ def _mapping(cal: FloorCalibration, plane: PersonPlane, on_floor: np.ndarray) ->
             out[on_floor] = cal.image_to_floor(uv[on_floor], FOOT_MIDDLE_M)
         return out
     return to_stage
+
+
+def _shoe_middles(cal: FloorCalibration, feet_uv: np.ndarray, outline: np.ndarray) -> np.ndarray:
+    """Stage points (K, 3) of the shoes' middles from the feet's pixels (K, 2): the outline's lowest
+    point within ``_SOLE_WINDOW_PX`` columns of a foot is the sole's edge nearest the camera, on the
+    floor; the shoe's middle is ``_SHOE_HALF_WIDTH_M`` beyond it (away from the camera), a shoe's middle
+    high. From a raised camera the foot's own pixel (its leg end's lowest rows) sits 1–1.5 px below the
+    shoe's middle (docs/notes/floor-calibration.md)."""
+    pts = np.asarray(outline, dtype=np.float64).reshape(-1, 2)
+    soles = np.array(feet_uv, dtype=np.float64).reshape(-1, 2)
+    for k, (u, v) in enumerate(soles):
+        near = pts[np.abs(pts[:, 0] - u) <= _SOLE_WINDOW_PX, 1]
+        soles[k, 1] = max(v, float(near.max())) if len(near) else v
+    out = cal.image_to_floor(soles, 0.0)
+    away = out - cal.camera_centre
+    away[:, 2] = 0.0
+    out += _SHOE_HALF_WIDTH_M * away / np.linalg.norm(away, axis=1, keepdims=True).clip(1e-9)
+    out[:, 2] = FOOT_MIDDLE_M
+    return out
 
 
 def _one_per_shoe(pos: np.ndarray, on_floor: np.ndarray) -> np.ndarray:
