@@ -77,7 +77,9 @@ def test_files_of_both_kinds_load_and_say_which_they_are(tmp_path: Path) -> None
     assert load_webcam_calibration(old) == Calibration.load(old) == upright
     said = tmp_path / "said.toml"
     said.write_text('kind = "upright"\n' + old.read_text())
-    assert load_webcam_calibration(said) == upright
+    assert load_webcam_calibration(said) == Calibration.load(said) == upright
+    with pytest.raises(CalibrationError, match=r"floor\.toml: kind: expected 'upright' here, got 'floor'"):
+        Calibration.load(path)  # the upright reader does not take a floor file for one
 
 
 @pytest.mark.parametrize(

@@ -274,4 +274,4 @@ def load_webcam_calibration(path: Path | str) -> Calibration | FloorCalibration:
         return FloorCalibration.from_table(data, str(path))
     if kind != "upright":
         raise CalibrationError(f"{path}: kind: expected 'floor' or 'upright', got {kind!r}"[:300])
-    return Calibration.from_table({k: v for k, v in data.items() if k != "kind"}, str(path))
+    return Calibration.from_table(data, str(path))
