@@ -2,12 +2,11 @@
 
 The observer (:mod:`interaction.webcam.observer`) finds a person's outline points, feet and keypoint
 limbs in the image; here they get stage positions through a :class:`FloorCalibration`. The feet go
-through the floor at the height of a shoe's middle (``FOOT_MIDDLE_M``); the person's ground point is
-their feet's middle (else the outline's bottom middle); a foot is placed from its sole's near edge
-(:func:`_shoe_middles`); everything else lands on the upright
-plane through that ground point facing the camera, so a head is placed along the vertical above the
-feet and a person's y is their depth. Velocities are the optical flow's displacement mapped the
-same way (with a y part). Points whose ray misses their plane are left out.
+onto the floor from their soles (:func:`_shoe_middles`, a shoe's middle high: ``FOOT_MIDDLE_M``); the
+person's ground point is their feet's middle (else the outline's bottom middle); everything else lands
+on the upright plane through that ground point facing the camera, so a head is placed along the
+vertical above the feet and a person's y is their depth. Velocities are the optical flow's
+displacement mapped the same way (with a y part). Points whose ray misses their plane are left out.
 """
 
 from __future__ import annotations
@@ -29,8 +28,8 @@ _RADIUS_PER_SPACING = 0.6  # as the observer's: neighbouring outline contactors 
 _SAME_SHOE_M = 0.15  # feet found nearer than this on the floor are pieces of one shoe (from above it is long)
 _SOLE_WINDOW_PX = 2.0  # a foot's sole: the outline's lowest point this many columns either side of it (input px)
 _SHOE_HALF_WIDTH_M = 0.03  # the shoe's middle beyond its sole's near edge (measured best of 0, 0.03, 0.06 m)
-_KEYPOINT_STEP_S = 0.01
-_MAX_REACH_M = 100.0  # a point placed farther from the stage origin is a ray that grazed its plane  # a keypoint's pixel velocity is mapped over this time step
+_KEYPOINT_STEP_S = 0.01  # a keypoint's pixel velocity is mapped over this time step
+_MAX_REACH_M = 100.0  # a point placed farther from the stage origin is a ray that grazed its plane
 
 
 class FloorPeople:
@@ -42,10 +41,6 @@ class FloorPeople:
         self._cfg = config
         self._planes: dict[int, PersonPlane] = {}
 
-    def plane(self, person: int) -> PersonPlane | None:
-        """The upright plane ``person`` was last placed on."""
-        return self._planes.get(person)
-
     def body(self, person: int, parts: list[str], uv: np.ndarray, n_feet: int, outline: np.ndarray,
              back: np.ndarray | None, dt: float) -> list[Contactor]:
         """One person's contactors from input pixels ``uv`` (N, 2) named ``parts``, the last ``n_feet``
@@ -54,8 +49,8 @@ class FloorPeople:
         cal, cfg = self.calibration, self._cfg
         self._planes.pop(person, None)
         on_floor = np.arange(len(uv)) >= len(uv) - n_feet
-        feet = cal.image_to_floor(uv[on_floor], FOOT_MIDDLE_M)
-        feet = feet[np.isfinite(feet).all(axis=1)]
+        shoes = _shoe_middles(cal, uv[on_floor], outline)
+        feet = shoes[np.isfinite(shoes).all(axis=1)]
         if len(feet):
             ground = feet[:, :2].mean(axis=0)
         else:  # no feet found: the outline's bottom middle (too near when the frame cuts the legs)
@@ -72,7 +67,7 @@ class FloorPeople:
         to_stage = _mapping(cal, plane, on_floor)
         pos = to_stage(uv)
         vel = (pos - to_stage(uv + back)) / dt if back is not None and dt > 0 else np.zeros_like(pos)
-        pos[on_floor] = _shoe_middles(cal, uv[on_floor], outline)
+        pos[on_floor] = shoes
         keep = _one_per_shoe(pos, on_floor)
         return _contactors(person, [p for p, k in zip(parts, keep, strict=True) if k], pos[keep], vel[keep],
                            radius[keep], cal.half_depth)
