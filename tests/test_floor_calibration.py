@@ -103,6 +103,24 @@ def test_a_bad_floor_file_is_refused_in_one_line(tmp_path: Path, text: str, mess
     assert "\n" not in str(info.value)
 
 
+def test_a_calibration_that_is_not_a_regular_file_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(CalibrationError, match=r"nowhere\.toml: no such calibration file"):
+        load_webcam_calibration(tmp_path / "nowhere.toml")
+    (tmp_path / "folder.toml").mkdir()
+    with pytest.raises(CalibrationError, match=r"folder\.toml") as info:
+        load_webcam_calibration(tmp_path / "folder.toml")
+    assert "\n" not in str(info.value)
+
+
+def test_a_person_right_under_the_camera_still_has_a_plane() -> None:
+    down = PinholeCamera(W, H, (0.0, 0.0, 3.0), 90.0, 72.0)  # looking straight down
+    cal = FloorCalibration(tuple(down.camera_matrix().ravel().tolist()), 0.25, (W, H))
+    plane = cal.person((0.0, 0.0))
+    assert np.allclose(plane.normal, [0.0, 1.0, 0.0])
+    beside = cal.person((1.0, 0.0))
+    assert np.allclose(beside.normal, [1.0, 0.0, 0.0])  # facing the camera, laid flat
+
+
 def test_typed_floor_points_give_the_floor_within_centimetres() -> None:
     uv = np.round(marks_px())  # typed as whole pixels
     fit = fit_floor_points(uv, MARKS, (W, H))

@@ -119,12 +119,11 @@ class FloorCalibration:
         g = np.array([ground_xy[0], ground_xy[1], 0.0])
         n = g - self._centre
         n[2] = 0.0
-        norm = float(np.linalg.norm(n))
-        if norm < 1e-6:  # right under the camera: face along the optical axis, laid flat
+        if float(np.linalg.norm(n)) < 1e-6:  # right under the camera: face along the optical axis, laid flat
             n = np.array([self._p[2, 0], self._p[2, 1], 0.0])
-            norm = float(np.linalg.norm(n)) or 1.0
-            n = n if norm > 1e-9 else np.array([0.0, 1.0, 0.0])
-        return PersonPlane(self, g, n / max(norm, 1e-9))
+        if float(np.linalg.norm(n)) < 1e-9:  # and the camera looks straight down: face the audience
+            n = np.array([0.0, 1.0, 0.0])
+        return PersonPlane(self, g, n / float(np.linalg.norm(n)))
 
     def upright(self, plane_y: float | None = None) -> Calibration:
         """The upright-plane calibration (image → (x, z) on y = ``plane_y``; default: the floor point
