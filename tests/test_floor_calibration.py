@@ -45,6 +45,9 @@ def test_the_exact_floor_calibration_puts_floor_points_and_heads_where_they_are(
         side = np.array([x, y, 1.2]) + 0.2 * np.cross([0.0, 0.0, 1.0], plane.normal)
         assert np.allclose(plane.image_to_stage(CAMERA.project(side[None])), side, atol=1e-9)
         assert 0.005 < float(plane.metres_per_pixel(CAMERA.project(head))[0]) < 0.05
+    # -P is the same camera
+    flipped = FloorCalibration(tuple((-CAMERA.camera_matrix()).ravel().tolist()), 0.25, (W, H))
+    assert np.allclose(flipped.image_to_floor(CAMERA.project(floor)), floor, atol=1e-9)
     # above the horizon there is no floor
     assert np.isnan(cal.image_to_floor(np.array([[160.0, -400.0]]))).all()
     # its upright plane is the camera's upright homography (same maths, round-off apart)

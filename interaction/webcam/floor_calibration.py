@@ -3,8 +3,8 @@
 ``projection`` P maps stage points to pixels, ``[u·w, v·w, w] = P·[x, y, z, 1]`` (stage frame: x to
 the audience's right, y into the screen, z up, floor z = 0; w > 0 in front of the camera). Its
 columns 0, 1 and 3 are the floor homography, column 2 the vertical's vanishing point. A person is
-placed by their feet: the feet go through the floor (:meth:`FloorCalibration.image_to_floor`, at the
-height of a shoe's middle), and the rest of the body onto the upright plane through the person's
+placed by their feet: the feet go through the floor (:meth:`FloorCalibration.image_to_floor`;
+:mod:`interaction.webcam.floor_people`), and the rest of the body onto the upright plane through the person's
 ground point facing the camera (:meth:`FloorCalibration.person`), so a head is placed along the
 vertical above the feet. From a floor homography alone the camera is recovered assuming square pixels
 and the principal point at the image centre (:func:`camera_from_floor`; the focal length found or given).
@@ -32,7 +32,7 @@ from sensors.untrusted import UntrustedInput, finite, load_toml, whole, write_ow
 
 __all__ = ["FOOT_MIDDLE_M", "FloorCalibration", "PersonPlane", "camera_from_floor", "load_webcam_calibration"]
 
-FOOT_MIDDLE_M = 0.04  # a foot found in the silhouette (a leg end's middle) is this high above the floor
+FOOT_MIDDLE_M = 0.04  # a foot's contactor (a shoe's middle) is this high above the floor
 _KEYS = ("kind", "projection", "half_depth", "image_size")
 
 
@@ -56,6 +56,8 @@ class FloorCalibration:
         if len(p) != 12 or not all(isinstance(x, int | float) and math.isfinite(x) for x in p):
             raise ValueError(f"projection: expected 12 finite numbers (3×4, row-major), got {list(p)!r}")
         m = np.asarray(p, dtype=np.float64).reshape(3, 4)
+        if np.linalg.det(m[:, :3]) < 0:  # P and -P are one camera: the one with w > 0 in front (det K·R > 0)
+            m = -m
         if not np.isfinite(np.linalg.cond(m[:, :3])) or np.linalg.cond(m[:, :3]) > 1e12:
             raise ValueError("projection: its left 3×3 part is singular (no camera has it)")
         if not (math.isfinite(self.half_depth) and self.half_depth >= 0):
@@ -72,15 +74,6 @@ class FloorCalibration:
         object.__setattr__(self, "_p", m)
         object.__setattr__(self, "_m_inv", m_inv)
         object.__setattr__(self, "_centre", centre)
-
-    @classmethod
-    def from_floor_homography(
-        cls, floor_to_image: np.ndarray, image_size: tuple[int, int], *, focal_px: float | None = None,
-        half_depth: float = 0.25,
-    ) -> FloorCalibration:
-        """From the homography floor (x, y, 1) → pixels (see :func:`camera_from_floor`)."""
-        p, _ = camera_from_floor(floor_to_image, image_size, focal_px)
-        return cls(tuple(float(x) for x in p.ravel()), half_depth, image_size)
 
     # ------------------------------------------------------------ geometry
 
