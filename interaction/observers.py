@@ -34,11 +34,12 @@ class ObserverType:
 
 def _build_webcam(config: Any, calibration: object, sensor: str) -> Observer:
     from interaction.webcam.calibration import Calibration
+    from interaction.webcam.floor_calibration import FloorCalibration, load_webcam_calibration
     from interaction.webcam.observer import WebcamObserver
 
     if isinstance(calibration, Path):
-        calibration = Calibration.load(calibration)
-    if not isinstance(config, WebcamObserverConfig) or not isinstance(calibration, Calibration):
+        calibration = load_webcam_calibration(calibration)  # an upright plane or the floor
+    if not isinstance(config, WebcamObserverConfig) or not isinstance(calibration, Calibration | FloorCalibration):
         raise TypeError("webcam observer: expected a WebcamObserverConfig and a calibration (file)")
     return WebcamObserver(config, calibration)
 

@@ -13,11 +13,12 @@ from pathlib import Path
 
 from interaction.webcam.calibration import Calibration
 from interaction.webcam.calibration_size import fit_to_image_size
+from interaction.webcam.floor_calibration import FloorCalibration, load_webcam_calibration
 from jostle.config import ObserverEntry
 from sensors.base import Sensor
 
 
-def calibration_for(ob: ObserverEntry, sensor: Sensor) -> Path | Calibration | None:
+def calibration_for(ob: ObserverEntry, sensor: Sensor) -> Path | Calibration | FloorCalibration | None:
     """What observer ``ob`` is built with: its calibration file, or the calibration rescaled to the
     images of ``sensor`` (raises CalibrationError for images of another shape)."""
     if ob.type != "webcam" or ob.calibration is None:
@@ -25,7 +26,7 @@ def calibration_for(ob: ObserverEntry, sensor: Sensor) -> Path | Calibration | N
     spec = sensor.spec
     if spec.width is None or spec.height is None:
         return ob.calibration
-    loaded = Calibration.load(ob.calibration)
+    loaded = load_webcam_calibration(ob.calibration)  # an upright plane or the floor
     fitted = fit_to_image_size(loaded, (spec.width, spec.height), file=ob.calibration,
                                images=f"sensor {ob.sensor!r}")
     return ob.calibration if fitted is loaded else fitted

@@ -74,3 +74,20 @@ def test_jostle_run_rescales_a_calibration_of_the_same_shape_with_one_warning(
                       "warning)"]
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["sensor_frames"] == 37 and summary["observed_frames_with_people"] > 0  # the person is seen
+
+
+def test_a_floor_calibration_of_the_same_shape_is_rescaled_too() -> None:
+    """A floor calibration (stage → pixels, a 3×4 camera matrix) made at 640×480, for 320×240 images:
+    every stage point lands at half its pixel coordinates."""
+    from interaction.webcam.floor_calibration import FloorCalibration
+    from jostle.performer.camera import PinholeCamera
+
+    camera = PinholeCamera(640, 480, (0.0, -3.5, 3.0), 30.0, 72.0)  # 3 m high, 30° down
+    made = FloorCalibration(tuple(camera.camera_matrix().ravel().tolist()), 0.25, (640, 480))
+    with pytest.warns(CalibrationRescaled):
+        fitted = fit_to_image_size(made, (320, 240), file="floor.toml", images="sensor 'cam'")
+    assert isinstance(fitted, FloorCalibration) and fitted.image_size == (320, 240)
+    stage = np.array([[0.0, 1.0, 0.0], [0.5, 2.0, 1.2], [-1.0, 0.5, 0.3]])
+    np.testing.assert_allclose(fitted.stage_to_image(stage), made.stage_to_image(stage) / 2, atol=1e-9)
+    np.testing.assert_allclose(fitted.image_to_floor(made.stage_to_image(stage[:1]) / 2)[0, :2], stage[0, :2],
+                               atol=1e-9)

@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 
 from interaction.webcam.calibration import Calibration, CalibrationError, round_off_zeros
+from interaction.webcam.floor_calibration import camera_from_floor
 
 __all__ = [
     "BoardPlacement",
@@ -248,35 +249,14 @@ def floor_to_upright(image_to_floor: np.ndarray, image_size: tuple[int, int], pl
     """From the homography image → floor (x, y), the homography image → upright plane (x, z) at
     y = ``plane_y``, and the focal length (pixels) found on the way. Assumes square pixels and the
     principal point at the image centre. Raises CalibrationRefused when the view is degenerate
-    (looking straight down, or the board seen edge-on)."""
-    w, h = image_size
-    k0 = np.array([[1.0, 0.0, (w - 1) / 2], [0.0, 1.0, (h - 1) / 2], [0.0, 0.0, 1.0]])
-    g = np.linalg.inv(k0) @ np.linalg.inv(image_to_floor)  # floor → centred image, ∝ diag(f, f, 1)[r1 r2 t]
-    g = g / np.linalg.norm(g[:, :2])
-    g1, g2 = g[:, 0], g[:, 1]
-    # r1 ⟂ r2 and |r1| = |r2| with r_i ∝ (g_ix / f, g_iy / f, g_iz): two equations a·w + b = 0 in
-    # w = 1/f², solved together by least squares (either alone fails for some views, e.g. no yaw)
-    a = np.array([g1[0] * g2[0] + g1[1] * g2[1], g1[0] ** 2 + g1[1] ** 2 - g2[0] ** 2 - g2[1] ** 2])
-    b = np.array([g1[2] * g2[2], g1[2] ** 2 - g2[2] ** 2])
-    den = float(a @ a)
-    w_inv = -float(a @ b) / den if den > 1e-30 else -1.0
-    f2 = 1.0 / w_inv if w_inv > 0 else -1.0
-    if not (math.isfinite(f2) and f2 > 0):
-        raise CalibrationRefused(
-            "a floor board seen from straight above or edge-on does not tell the camera's focal length: "
-            "tilt the camera toward the stage, or hang the board upright (--plane screen)"
-        )
-    f = math.sqrt(f2)
-    kinv = np.diag([1.0 / f, 1.0 / f, 1.0])
-    a1, a2, a3 = kinv @ g1, kinv @ g2, kinv @ g[:, 2]
-    lam = 2.0 / (np.linalg.norm(a1) + np.linalg.norm(a2))
-    if a3[2] * lam < 0:  # the board must be in front of the camera
-        lam = -lam
-    r1, r2, t = lam * a1, lam * a2, lam * a3
-    r3 = np.cross(r1, r2)  # stage z (up) in camera coordinates
-    upright = np.diag([f, f, 1.0]) @ np.column_stack([r1, r3, t + plane_y * r2])  # (x, z, 1) → centred image
-    to_image = k0 @ upright
-    return np.linalg.inv(to_image), f
+    (looking straight down, or the board seen edge-on). The camera: :func:`camera_from_floor`."""
+    try:
+        p, f = camera_from_floor(np.linalg.inv(image_to_floor), image_size)
+    except CalibrationError as e:
+        raise CalibrationRefused(f"the board: {e}: tilt the camera toward the stage, or hang the board upright "
+                                 "(--plane screen)") from None
+    upright = np.column_stack([p[:, 0], p[:, 2], p[:, 3] + plane_y * p[:, 1]])  # (x, z, 1) → image
+    return np.linalg.inv(upright), f
 
 
 def board_image(spec: BoardSpec, px_per_m: float = 2500.0, margin_px: int = 40) -> np.ndarray:

@@ -32,7 +32,7 @@ from sensors.untrusted.limits import CALIBRATION
 
 __all__ = ["Calibration", "CalibrationError"]
 
-_KEYS = ("homography", "plane_y", "half_depth", "image_size")
+_KEYS = ("homography", "plane_y", "half_depth", "image_size", "kind")  # kind: "upright" if given
 
 
 class CalibrationError(ValueError):
@@ -168,6 +168,8 @@ class Calibration:
     @classmethod
     def from_table(cls, data: dict[str, Any], source: str = "<calibration>") -> Calibration:
         """Build from an already parsed TOML table; errors start with ``source: key:``."""
+        if data.get("kind", "upright") != "upright":
+            raise CalibrationError(f"{source}: kind: expected 'upright' here, got {data['kind']!r}"[:300])
         unknown = sorted(set(data) - set(_KEYS))
         if unknown:
             raise CalibrationError(f"{source}: {unknown[0]}: unknown key (expected {', '.join(_KEYS)})")

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from interaction.webcam.calibration import Calibration, CalibrationError
+from interaction.webcam.floor_calibration import FloorCalibration
 
 __all__ = ["CalibrationRescaled", "fit_to_image_size"]
 
@@ -24,8 +25,8 @@ class CalibrationRescaled(UserWarning):
     """A calibration made for another image size of the same shape was rescaled to the images' size."""
 
 
-def fit_to_image_size(calibration: Calibration, size: tuple[int, int], *, file: Path | str,
-                      images: str) -> Calibration:
+def fit_to_image_size(calibration: Calibration | FloorCalibration, size: tuple[int, int], *, file: Path | str,
+                      images: str) -> Calibration | FloorCalibration:
     """``calibration`` for images of ``size`` (width, height in pixels) from ``images`` (e.g. "sensor
     'cam'"): itself when it names no size or this one; rescaled, with a warning, when only the scale
     differs; otherwise a CalibrationError naming ``file``."""
@@ -38,10 +39,13 @@ def fit_to_image_size(calibration: Calibration, size: tuple[int, int], *, file: 
             f"{file}: made for {w0}×{h0} images, but {images} gives {w1}×{h1} (another aspect ratio); "
             f"calibrate again for {w1}×{h1} (jostle calibrate webcam) or set the camera to {w0}×{h0}")
     sx, sy = w1 / w0, h1 / h0
-    h = calibration.matrix @ np.diag([1.0 / sx, 1.0 / sy, 1.0])  # a new pixel (u, v) was (u / sx, v / sy)
     warnings.warn(
         f"{file}: made for {w0}×{h0} images, {images} gives {w1}×{h1}: the same view scaled ×{sx:.4g}, "
         f"so the calibration is rescaled (calibrate again at {w1}×{h1} to end this warning)",
         CalibrationRescaled, stacklevel=2)
+    if isinstance(calibration, FloorCalibration):  # stage → pixels: the new pixel is (sx·u, sy·v)
+        p = np.diag([sx, sy, 1.0]) @ np.asarray(calibration.projection, dtype=np.float64).reshape(3, 4)
+        return dataclasses.replace(calibration, projection=tuple(float(x) for x in p.ravel()), image_size=size)
+    h = calibration.matrix @ np.diag([1.0 / sx, 1.0 / sy, 1.0])  # a new pixel (u, v) was (u / sx, v / sy)
     return dataclasses.replace(calibration, homography=tuple(float(x) for x in h.ravel()),
                                image_size=size)

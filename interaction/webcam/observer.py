@@ -6,7 +6,7 @@ joined to it, people who walked into each other cut apart; :mod:`interaction.web
 with ids kept by nearest centroid, points along each outline plus head and hands
 (:mod:`interaction.people`) and feet at the middles of the leg ends, each with a velocity from DIS
 dense optical flow (in boxes around the people; :mod:`interaction.webcam.people_flow`), all mapped through
-the :class:`Calibration` onto the stage plane. A hand or foot that cannot be placed (legs hidden by a
+the calibration onto the stage plane (or floor). A hand or foot that cannot be placed (legs hidden by a
 background like them, a person cut from others) is left out rather than reported at a wrong place.
 With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.webcam.pose`, run beside the loop
 by :mod:`interaction.webcam.pose_worker`) add hands and feet as contactors with their own velocities.
@@ -29,6 +29,7 @@ from interaction.people import Blob, PeopleTracker, find_blobs, outline_points
 from interaction.types import BodyObservation, Contactor, Silhouette
 from interaction.webcam.calibration import Calibration
 from interaction.webcam.config import FlowPreset, WebcamObserverConfig
+from interaction.webcam.floor_people import FloorCalibration, FloorPeople, flow_back
 from interaction.webcam.people_flow import joined_boxes, median_flow
 from interaction.webcam.pose import Keypoints
 from interaction.webcam.pose_limbs import PoseLimbs
@@ -56,12 +57,13 @@ class WebcamObserver:
 
     The first ``config.learn_frames`` frames learn the empty stage; meanwhile (``learning``)
     every observation is empty. Contactors are capsules along the stage's y axis at
-    ``calibration.plane_y`` ± ``calibration.half_depth``; velocities have no y part.
+    ``calibration.plane_y`` ± ``calibration.half_depth``; velocities have no y part (floor: :class:`FloorPeople`).
     """
 
-    def __init__(self, config: WebcamObserverConfig, calibration: Calibration) -> None:
-        self._cfg = config
-        self._cal = calibration
+    def __init__(self, config: WebcamObserverConfig, calibration: Calibration | FloorCalibration) -> None:
+        self._cfg = config  # a floor calibration places people (``_floor``); ``_cal`` is then its upright plane
+        self._floor = FloorPeople(calibration, config) if isinstance(calibration, FloorCalibration) else None
+        self._cal = calibration.upright() if isinstance(calibration, FloorCalibration) else calibration
         self._background = BackgroundModel(config)
         self._tracker: PeopleTracker | None = None
         self._flow = cv2.DISOpticalFlow.create(_DIS_PRESETS[config.flow_preset])
@@ -247,7 +249,7 @@ class WebcamObserver:
                 f"got {bgr.dtype} {bgr.shape}"
             )
         size = p.size
-        want = self._cal.image_size
+        want = (self._floor.calibration if self._floor is not None else self._cal).image_size
         if want is not None and size != want:
             raise ValueError(
                 f"WebcamObserver: frame {frame.seq} from sensor {frame.sensor!r} is {size[0]}×{size[1]}, "
@@ -318,6 +320,9 @@ class WebcamObserver:
         parts = [p for p, k in zip(named, keep, strict=True) if k] + ["foot"] * len(found_feet)
         uv_px = np.rint(uv_work).astype(np.intp)
         uv = self._to_input_px(uv_work)
+        if self._floor is not None:
+            back = flow_back(self._flow_px, people, uv_px, self._cfg.flow_window_px, self._scale, dt)
+            return self._floor.body(person, parts, uv, len(found_feet), self._to_input_px(blob.blob.contour), back, dt)
         pos = self._cal.image_to_stage(uv)
         vel = self._flow_velocity(uv_px, uv, pos, people, dt)
         if vel is None:
@@ -364,8 +369,12 @@ class WebcamObserver:
             if not limbs:
                 continue
             uv = np.array([limb.uv for limb in limbs])
-            pos = self._cal.image_to_stage(uv)
             uv_px = np.clip(np.rint((uv + 0.5) * self._scale - 0.5), 0, np.array(people.shape[::-1]) - 1).astype(np.intp)
+            if self._floor is not None:
+                back = flow_back(self._flow_px, people, uv_px, self._cfg.flow_window_px, self._scale, 0.0 if pid in born else dt)
+                out.extend(self._floor.limbs(pid, limbs, uv, back, dt))
+                continue
+            pos = self._cal.image_to_stage(uv)
             vel = self._flow_velocity(uv_px, uv, pos, people, 0.0 if pid in born else dt)
             if vel is None:
                 vxz = np.einsum("nij,nj->ni", self._cal.jacobian(uv), np.array([limb.velocity for limb in limbs]))

@@ -43,17 +43,25 @@ def add(sub: Any) -> None:
         "error, and write the calibration TOML. A fit whose error exceeds --max-error is refused.\n\n"
         "Placement: --plane screen (the board upright in the stage plane, e.g. shown on the\n"
         "projection screen or hung where people stand; --origin X,Z is the stage position of its\n"
-        "top-left corner) or --plane floor (flat on the floor, top edge toward the screen; --origin X,Y).",
+        "top-left corner) or --plane floor (flat on the floor, top edge toward the screen; --origin X,Y).\n"
+        "Without a board: --points, four or more floor points (pixel = stage x,y metres) → a floor calibration.",
         epilog="examples:\n"
         "  jostle calibrate board --out board.png --square-m 0.12 --marker-m 0.09\n"
         "  jostle record configs/webcam.toml --out board.mcap --duration 3\n"
         "  jostle calibrate webcam --from board.mcap --square-m 0.12 --marker-m 0.09 --origin=-0.3,1.8 \\\n"
         "      --config configs/webcam.toml --preview board-fit.png\n"
+        '  jostle calibrate webcam --size 640x480 --points "102,410=-2,0 540,405=2,0 470,250=1.5,3 170,252=-1.5,3"\n'
+        "      --out calibration/webcam.toml\n"
         "  jostle calibrate webcam --camera 0 --plane floor --origin=-0.5,1.0 --out calibration/webcam.toml",
     )
-    src = w.add_mutually_exclusive_group(required=True)
+    src = w.add_mutually_exclusive_group()
     src.add_argument("--from", dest="recording", type=Path, metavar="REC.mcap", help="a recording (headless)")
     src.add_argument("--camera", metavar="SOURCE", help='a live camera ("0"), a video file or a stream URL')
+    w.add_argument("--points", default=None, metavar='"U,V=X,Y ..."',
+                   help="no board: floor points, each a pixel and the stage x,y metres it lies at (4 or more)")
+    w.add_argument("--size", default=None, metavar="WxH", help="--points: the image size (default: --from/--camera's)")
+    w.add_argument("--hfov", type=float, default=None, metavar="DEG",
+                   help="--points: the camera's horizontal field of view, if known (default: found from the points)")
     w.add_argument("--channel", default="", help="the recording's colour channel (default: the only one)")
     w.add_argument("--frames", type=int, default=30, metavar="N", help="use up to N frames (default 30)")
     w.add_argument("--seconds", type=float, default=5.0, metavar="S", help="--camera: watch for S seconds")
@@ -63,8 +71,9 @@ def add(sub: Any) -> None:
                    help="stage metres of the board's top-left corner: X,Z (screen) or X,Y (floor); "
                    "write --origin=-0.5,1.2 when it starts with a minus")
     w.add_argument("--plane-y", type=float, default=0.0, metavar="M", help="the stage plane people stand in (y)")
-    w.add_argument("--half-depth", type=float, default=1.0, metavar="M",
-                   help="how far a webcam contactor reaches either side of that plane")
+    w.add_argument("--half-depth", type=float, default=None, metavar="M",
+                   help="how far a webcam contactor reaches either side of that plane (default 1; --points: "
+                   "of the person's own, default 0.25)")
     w.add_argument("--max-error", type=float, default=2.0, metavar="PX",
                    help="refuse a fit whose RMS reprojection error exceeds PX pixels (default 2)")
     w.add_argument("--out", type=Path, default=None, metavar="FILE.toml",
@@ -136,10 +145,16 @@ def cmd_calibrate_board(args: argparse.Namespace) -> int:
 
 def cmd_calibrate_webcam(args: argparse.Namespace) -> int:
     from interaction.webcam.calibrate import BoardPlacement, CalibrationRefused, detect_board, fit_calibration
+    from jostle.cli.calibrate_points import calibrate_from_points
 
+    if args.points is not None:
+        return calibrate_from_points(args, _out_path(args), _frames)
+    if args.recording is None and args.camera is None:
+        raise _usage("calibrate webcam: give --from REC.mcap or --camera SOURCE (a board in view), or --points")
     spec = _board_spec(args)
     try:
-        placement = BoardPlacement(args.plane, _pair(args.origin, "--origin"), args.plane_y, args.half_depth)
+        placement = BoardPlacement(args.plane, _pair(args.origin, "--origin"), args.plane_y,
+                                   1.0 if args.half_depth is None else args.half_depth)
     except ValueError as e:
         raise _usage(f"--{str(e).split(':')[0].replace('_', '-')}: {str(e).split(': ', 1)[-1]}") from None
     out = _out_path(args)

@@ -98,6 +98,13 @@ class PinholeCamera:
         h = np.linalg.inv(plane_to_image)
         return round_off_zeros(h / h[2, 2])  # the same file on every CPU (no 1e-19 round-off entries)
 
+    def camera_matrix(self) -> np.ndarray:
+        """P (3×4) taking stage points (x, y, z, 1) to pixels (u·w, v·w, w), w the depth along the
+        optical axis: K·R·[I | −C]. Its columns 0, 1, 3 are the floor's homography (the exact
+        ``kind = "floor"`` calibration, ``interaction.webcam.floor_calibration``)."""
+        kr = self.intrinsics @ self.rotation
+        return round_off_zeros(np.column_stack([kr, -kr @ self.centre]))
+
     # ------------------------------------------------------------ pybullet
 
     def view_matrix(self) -> list[float]:
