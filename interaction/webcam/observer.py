@@ -9,8 +9,8 @@ dense optical flow (in boxes around the people; :mod:`interaction.webcam.people_
 the :class:`Calibration` onto the stage plane. A hand or foot that cannot be placed (legs hidden by a
 background like them, a person cut from others) is left out rather than reported at a wrong place.
 With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.webcam.pose`) add hands and feet as
-contactors with their own velocities. Pure of hardware: feed it :class:`sensors.Frame` objects from
-anywhere.
+contactors with their own velocities. Uncalibrated (``jostle observe``), observations carry the people
+count only; the contactors in image pixels are :attr:`WebcamObserver.image_contactors`. Pure of hardware.
 
 A frame allocates no image-sized arrays but the one it hands out (the people's mask) and the flow DIS
 returns: the work arrays are kept from frame to frame (why: docs/notes/webcam.md).
@@ -26,11 +26,12 @@ import cv2
 import numpy as np
 import numpy.ma  # noqa: F401  np.median imports it on first use (~16 ms): at import, not in the first frame
 
-from interaction.people import Blob, PeopleTracker, find_blobs, outline_points
+from interaction.people import Blob, PeopleTracker, outline_points
 from interaction.types import BodyObservation, Contactor
 from interaction.webcam.calibration import Calibration
 from interaction.webcam.config import FlowPreset, WebcamObserverConfig
-from interaction.webcam.people_flow import joined_boxes, median_flow
+from interaction.webcam.people_flow import median_flow, people_flow, same_size
+from interaction.webcam.people_found import PersonFinder, person_finder
 from interaction.webcam.pose import Keypoints, PoseModel, PoseModelError, PoseTracker
 from interaction.webcam.pose_models import default_model_dir, find_models
 from interaction.webcam.silhouette import BackgroundModel
@@ -47,8 +48,8 @@ _DIS_PRESETS: dict[FlowPreset, int] = {
     "medium": cv2.DISOPTICAL_FLOW_PRESET_MEDIUM,
 }
 _RADIUS_PER_SPACING = 0.6  # derived radius: neighbouring outline contactors overlap a little
-_FLOW_MARGIN = 24  # work pixels of context around the people for the optical flow
 _SPLIT_UNSEEN_FRAMES = 5  # people unseen longer do not cut a blob in two
+_PIXELS = Calibration((1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), half_depth=0.0)  # uncalibrated: (u, v) → (u, v)
 
 
 class WebcamObserver:
@@ -56,12 +57,17 @@ class WebcamObserver:
 
     The first ``config.learn_frames`` frames learn the empty stage; meanwhile (``learning``)
     every observation is empty. Contactors are capsules along the stage's y axis at
-    ``calibration.plane_y`` ± ``calibration.half_depth``; velocities have no y part.
+    ``calibration.plane_y`` ± ``calibration.half_depth``; velocities have no y part (none uncalibrated).
     """
 
-    def __init__(self, config: WebcamObserverConfig, calibration: Calibration) -> None:
+    def __init__(self, config: WebcamObserverConfig, calibration: Calibration | None = None) -> None:
         self._cfg = config
-        self._cal = calibration
+        self._calibrated = calibration
+        self._cal = calibration if calibration is not None else _PIXELS
+        self._finder: PersonFinder | None = None  # made by the first frame (its size sets the pixel limits)
+        self._outlines: dict[int, np.ndarray] = {}  # the people: id → outline
+        self._image_contactors: tuple[Contactor, ...] = ()
+        self._pose_updates: dict[int, int] = {}
         self._background = BackgroundModel(config)
         self._tracker: PeopleTracker | None = None
         self._flow = cv2.DISOpticalFlow.create(_DIS_PRESETS[config.flow_preset])
@@ -90,8 +96,28 @@ class WebcamObserver:
         return self._cfg
 
     @property
-    def calibration(self) -> Calibration:
-        return self._cal
+    def calibration(self) -> Calibration | None:  # None: uncalibrated, image space only
+        return self._calibrated
+
+    @property
+    def people(self) -> dict[int, np.ndarray]:
+        """The last frame's people: id → outline (M, 2) in input pixels (float)."""
+        return self._outlines
+
+    @property
+    def image_contactors(self) -> tuple[Contactor, ...]:
+        """Uncalibrated only: the last frame's contactors in input pixels (position (u, 0, v), px/s, radius px)."""
+        return self._image_contactors
+
+    @property
+    def pose_updates(self) -> dict[int, int]:
+        """Keypoint refreshes per person id since the start (one per frame a person's keypoints came)."""
+        return self._pose_updates
+
+    @property
+    def crowd_frames(self) -> int:
+        """Frames that held more people than ``max_people`` (the smallest of them not reported)."""
+        return self._finder.crowd_frames if self._finder is not None else 0
 
     @property
     def learning(self) -> bool:
@@ -153,6 +179,7 @@ class WebcamObserver:
         self._mask = None
         self._silhouette = None
         self._flow_px = None
+        self._finder, self._outlines, self._image_contactors = None, {}, ()
 
     # ------------------------------------------------------------ per frame
 
@@ -161,7 +188,7 @@ class WebcamObserver:
         or whose size differs from the calibration's or from the frames before it."""
         bgr = self._check(frame)
         work = self._work_image(bgr)
-        grey = cv2.cvtColor(work, cv2.COLOR_BGR2GRAY, dst=_same_size(self._spare_grey, work.shape[:2], np.uint8))
+        grey = cv2.cvtColor(work, cv2.COLOR_BGR2GRAY, dst=same_size(self._spare_grey, work.shape[:2], np.uint8))
         prev_grey, prev_t = self._prev_grey, self._prev_t
         self._prev_grey, self._prev_t = grey, frame.t
         self._spare_grey = prev_grey  # still read this frame (the flow); written into next frame
@@ -174,37 +201,45 @@ class WebcamObserver:
         cfg = self._cfg
         h, w = grey.shape
         mask = self._background.foreground(work, ignore=self._ignore_for_light())
-        found = join_fragments(find_blobs(mask, cfg.min_blob_area * w * h, 2 * cfg.max_people))[: cfg.max_people]
+        finder = self._finder = self._finder or person_finder(cfg, self._scale, (w, h), self._calibrated, self._input_size)
+        found = join_fragments(finder.find(mask))
         recent: list[tuple[float, float]] = []
         if self._tracker is not None and found:  # people who walked into each other: cut where each was
             recent = [c for c, unseen in self._tracker.predicted().values() if unseen <= _SPLIT_UNSEEN_FRAMES]
-        persons = split_people(found, recent, cfg.min_blob_area * w * h)[: cfg.max_people]
+        persons = split_people(found, recent, finder.min_area_px)[: cfg.max_people]
         blobs = [p.blob for p in persons]
-        self._background.refresh(work, someone_in_view=bool(blobs))
 
         people = np.zeros_like(mask)
         if blobs:
             cv2.drawContours(people, [b.contour.reshape(-1, 1, 2) for b in blobs], -1, 255, cv2.FILLED)
         people.flags.writeable = False
+        grown = cv2.dilate(people, self._grow_kernel, dst=same_size(self._grown, people.shape, np.uint8))
+        self._background.refresh(work, grown if blobs else None)
         self._mask, self._silhouette = people, None
         if self._tracker is None:
             self._tracker = PeopleTracker(cfg.match_distance * math.hypot(w, h), cfg.track_memory_frames)
         ids = self._tracker.assign([b.centroid for b in blobs])  # also ages the people not seen
         if self._pose is not None:
             self._pose.forget(set(ids))
+        self._outlines = {i: self._to_input_px(b.contour.astype(np.float64)) for i, b in zip(ids, blobs, strict=True)}
+        self._image_contactors = ()
         if not blobs:
             return BodyObservation(t=frame.t)
         born = self._tracker.born
 
         dt = frame.t - prev_t if prev_t is not None else 0.0
         if prev_grey is not None and dt > 0 and len(born) < len(ids):
-            self._flow_px = self._people_flow(grey, prev_grey, blobs)
+            self._flow_work = same_size(self._flow_work, (*grey.shape, 2), np.float32)
+            self._flow_px = people_flow(self._flow, grey, prev_grey, blobs, self._flow_work)
 
         contactors: list[Contactor] = []
         for pid, person in sorted(zip(ids, persons, strict=True), key=lambda p: p[0]):
             contactors.extend(self._contactors(pid, person, people, 0.0 if pid in born else dt))
         if self._pose is not None:
             contactors.extend(self._limb_contactors(bgr, ids, blobs, people, frame.t, dt, born))
+        if self._calibrated is None:
+            self._image_contactors = tuple(contactors)
+            return BodyObservation(t=frame.t, people=len(blobs))
         return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(blobs))
 
     # ------------------------------------------------------------ internals
@@ -246,7 +281,7 @@ class WebcamObserver:
             return bgr
         h, w = bgr.shape[:2]
         size = (max(1, round(w * self._scale)), max(1, round(h * self._scale)))
-        self._work = _same_size(self._work, (size[1], size[0], 3), np.uint8)
+        self._work = same_size(self._work, (size[1], size[0], 3), np.uint8)
         return cv2.resize(bgr, size, dst=self._work, interpolation=cv2.INTER_AREA)
 
     def _to_input_px(self, uv_work: np.ndarray) -> np.ndarray:
@@ -259,25 +294,8 @@ class WebcamObserver:
         """Where people stood last frame, grown a little: left out of the light measurement."""
         if self._mask is None or not self._mask.any():
             return None
-        self._grown = _same_size(self._grown, self._mask.shape, np.uint8)
+        self._grown = same_size(self._grown, self._mask.shape, np.uint8)
         return cv2.dilate(self._mask, self._grow_kernel, dst=self._grown)
-
-    def _people_flow(self, grey: np.ndarray, prev_grey: np.ndarray, blobs: list[Blob]) -> np.ndarray:
-        """Backward DIS flow (current → previous frame) over the boxes around the people plus a margin,
-        overlapping boxes joined (the rest of the frame is left 0: it is never sampled). People far
-        apart cost two small boxes, not one as wide as the frame."""
-        h, w = grey.shape
-        m = _FLOW_MARGIN
-        boxes = [(max(0, int(b.contour[:, 0].min()) - m), max(0, int(b.contour[:, 1].min()) - m),
-                  min(w, int(b.contour[:, 0].max()) + m + 1), min(h, int(b.contour[:, 1].max()) + m + 1))
-                 for b in blobs]
-        flow = self._flow_work = _same_size(self._flow_work, (h, w, 2), np.float32)
-        flow.fill(0.0)
-        for u0, v0, u1, v1 in joined_boxes(boxes):
-            now, before = np.ascontiguousarray(grey[v0:v1, u0:u1]), np.ascontiguousarray(prev_grey[v0:v1, u0:u1])
-            # None: no initial flow (OpenCV's stubs demand an array, which DIS would take as one)
-            flow[v0:v1, u0:u1] = self._flow.calc(now, before, None)  # type: ignore[call-overload]
-        return flow
 
     def _contactors(self, person: int, blob: PersonBlob, people: np.ndarray, dt: float) -> list[Contactor]:
         """One person's contactors; ``dt`` ≤ 0 gives them no velocity (first sight, no interval).
@@ -340,6 +358,7 @@ class WebcamObserver:
             kp = self._pose.track(bgr, pid, outline)
             if kp is None:
                 continue
+            self._pose_updates[pid] = self._pose_updates.get(pid, 0) + 1
             limbs = self._pose.limbs(pid, kp, t, accept)
             if not limbs:
                 continue
@@ -369,10 +388,3 @@ def _pose_tracker(config: WebcamObserverConfig) -> PoseTracker | None:
         log.warning("webcam observer: pose: %s; running silhouette-only, without body keypoints", e)
         return None
     return PoseTracker(model, config.pose_min_score, config.pose_min_visibility)
-
-
-def _same_size(array: np.ndarray | None, shape: tuple[int, ...], dtype: type) -> np.ndarray:
-    """``array`` when it has this shape (its contents are to be overwritten), else a new one that has."""
-    if array is None or array.shape != shape:
-        return np.empty(shape, dtype)
-    return array
