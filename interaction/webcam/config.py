@@ -24,9 +24,12 @@ class WebcamObserverConfig:
     ``morphology_px`` and ``flow_window_px`` count pixels of the shrunk frame, ``contour_spacing_px``
     pixels of the original frame (the calibration's).
 
-    Background: the median of the first ``learn_frames`` frames, then refreshed at ``refresh_rate``
-    per frame wherever no person stands (selective: a scene that never empties still adapts), and
-    everywhere once no one has been in view for ``refresh_after_empty_frames`` frames. Global light
+    Background: the median of the first ``learn_frames`` frames, then adapted at ``adapt_rate`` per
+    frame wherever no person stands (selective: a scene that never empties still adapts), and at
+    ``refresh_rate`` everywhere once no one has been in view for ``refresh_after_empty_frames``
+    frames; a "person" who
+    has not moved at all for ``still_to_background_s`` seconds (0: never) is taken into it (a ghost of
+    what stood there while learning, a changed light). Global light
     change is undone before differencing (per-channel gain measured where no one stands).
 
     Foreground: colour distance to the background above ``diff_threshold`` (BGR units 0–255) and
@@ -83,6 +86,8 @@ class WebcamObserverConfig:
     track_memory_frames: int = 15
     refresh_rate: float = 0.02
     refresh_after_empty_frames: int = 30
+    adapt_rate: float = 0.01
+    still_to_background_s: float = 4.0
     pose: bool = False
     pose_model_dir: str = ""
     pose_min_score: float = 0.5
@@ -123,7 +128,9 @@ class WebcamObserverConfig:
         number("match_distance", 0.0, 2.0, lo_open=True)
         whole("track_memory_frames", 0, 100000)
         number("refresh_rate", 0.0, 1.0)
+        number("adapt_rate", 0.0, 1.0)
         whole("refresh_after_empty_frames", 0, 100000)
+        number("still_to_background_s", 0.0, 86400.0)
         _need(isinstance(self.pose, bool), "pose", "true or false", self.pose)
         _need(isinstance(self.pose_model_dir, str), "pose_model_dir", "a folder path (\"\" = the default cache)",
               self.pose_model_dir)

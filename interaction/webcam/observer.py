@@ -48,7 +48,6 @@ _DIS_PRESETS: dict[FlowPreset, int] = {
     "medium": cv2.DISOPTICAL_FLOW_PRESET_MEDIUM,
 }
 _RADIUS_PER_SPACING = 0.6  # derived radius: neighbouring outline contactors overlap a little
-_SPLIT_UNSEEN_FRAMES = 5  # people unseen longer do not cut a blob in two
 _PIXELS = Calibration((1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), half_depth=0.0)  # uncalibrated: (u, v) → (u, v)
 
 
@@ -62,11 +61,10 @@ class WebcamObserver:
 
     def __init__(self, config: WebcamObserverConfig, calibration: Calibration | None = None) -> None:
         self._cfg = config
-        self._calibrated = calibration
-        self._cal = calibration if calibration is not None else _PIXELS
+        self._calibrated, self._cal = calibration, calibration or _PIXELS
         self._finder: PersonFinder | None = None  # made by the first frame (its size sets the pixel limits)
         self._outlines: dict[int, np.ndarray] = {}  # the people: id → outline
-        self._image_contactors: tuple[Contactor, ...] = ()
+        self._image_contactors: tuple[Contactor, ...] = ()  # uncalibrated: in image pixels
         self._pose_updates: dict[int, int] = {}
         self._background = BackgroundModel(config)
         self._tracker: PeopleTracker | None = None
@@ -205,7 +203,7 @@ class WebcamObserver:
         found = join_fragments(finder.find(mask))
         recent: list[tuple[float, float]] = []
         if self._tracker is not None and found:  # people who walked into each other: cut where each was
-            recent = [c for c, unseen in self._tracker.predicted().values() if unseen <= _SPLIT_UNSEEN_FRAMES]
+            recent = finder.apart(self._tracker.predicted(), frame.t)
         persons = split_people(found, recent, finder.min_area_px)[: cfg.max_people]
         blobs = [p.blob for p in persons]
 
@@ -219,6 +217,9 @@ class WebcamObserver:
         if self._tracker is None:
             self._tracker = PeopleTracker(cfg.match_distance * math.hypot(w, h), cfg.track_memory_frames)
         ids = self._tracker.assign([b.centroid for b in blobs])  # also ages the people not seen
+        finder.seen(ids, persons, found, frame.t)
+        for ghost in finder.still.still(ids, blobs, grey, prev_grey, frame.t):
+            self._background.absorb(work, ghost.contour)  # gone from the next frame on
         if self._pose is not None:
             self._pose.forget(set(ids))
         self._outlines = {i: self._to_input_px(b.contour.astype(np.float64)) for i, b in zip(ids, blobs, strict=True)}

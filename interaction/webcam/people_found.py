@@ -19,8 +19,9 @@ import numpy as np
 from interaction.people import Blob, find_blobs
 from interaction.webcam.calibration import Calibration
 from interaction.webcam.config import WebcamObserverConfig
+from interaction.webcam.silhouette_parts import PersonBlob
 
-__all__ = ["PersonFinder", "find_people", "person_finder", "split_at_heads"]
+__all__ = ["PersonFinder", "StillPeople", "find_people", "person_finder", "split_at_heads"]
 
 log = logging.getLogger("jostle.webcam")
 
@@ -28,25 +29,33 @@ _MIN_HEIGHT_SHARE = 0.5  # a blob at least this share of the smallest person's h
 _MIN_AREA_PER_H2 = 0.04  # ... and at least this share of that height squared in pixels
 _ONE_WIDE = 0.6  # one person (arms in) is at most this wide for their height: two halves no wider are one
 _POST_GAP = 0.2  # the two halves of a person behind a post are at most this far apart (share of height)
-_HEAD_DIP = 0.1  # two heads: each top at least this share of the blob's height above the lowest top between
-_HEAD_APART = 0.2  # ... and at least this far apart (share of the height)
-_HEAD_WIDE = 0.07  # a head is at least this wide at the dip depth below its top (an arm is narrower)
+_HEAD_DIP = 0.12  # two heads: each top at least this share of the blob's height above the lowest top between
+_HEAD_APART = 0.25  # ... and at least this far apart (share of the height)
+_HEAD_WIDE = 0.08  # a head is at least this wide half the dip below its top (a raised hand is narrower)
 _JOIN_WIDE, _JOIN_TALL = 0.2, 0.33  # pieces this close (share of the smallest person's height) are one
+_MOVED_LEVEL, _MOVED_SHARE = 12, 0.002  # a blob moved: this share of its area changed by more grey levels
+_MIN_WIDE = 0.15  # a person is at least this wide for their height (narrower: an arm, a pole)
+_SPLIT_UNSEEN_FRAMES = 5  # people unseen longer do not cut a blob in two...
+_APART_S = 1.0  # ... nor people last found as a blob of their own longer ago (seconds)
 _SIDE_BY_SIDE_WIDE = 0.45  # a blob narrower than this (share of its height) is never cut
 
 
-def find_people(mask: np.ndarray, min_height_px: float, max_count: int, min_area_px: float = 0.0) -> list[Blob]:
+def find_people(mask: np.ndarray, min_height_px: float, max_count: int, min_area_px: float = 0.0,
+                original: np.ndarray | None = None) -> list[Blob]:
     """The people in a foreground mask (uint8 0/255), largest first, at most ``max_count`` of them
     (the caller counts the rest: pass a larger count to see them). ``min_height_px``: the smallest
-    person's height; ``min_area_px``: a further area floor (the deprecated ``min_blob_area``)."""
+    person's height; ``min_area_px``: a further area floor (the deprecated ``min_blob_area``).
+    ``original``: the mask before pieces were joined; a person who is one piece of it keeps that
+    piece's own outline (the joining closes the gaps between legs and arms too)."""
     floor = max(min_area_px, _MIN_AREA_PER_H2 * min_height_px * min_height_px, 1.0)
     blobs = find_blobs(mask, floor * 0.25, 4 * max_count + 8)
     blobs = _join_post_halves(blobs)
     out: list[Blob] = []
     for b in blobs:
-        if _height(b) < _MIN_HEIGHT_SHARE * min_height_px or b.area < floor:
-            continue
-        out.extend(split_at_heads(b, _MIN_HEIGHT_SHARE * min_height_px, floor))
+        if _height(b) < _MIN_HEIGHT_SHARE * min_height_px or b.area < floor or _width(b) < _MIN_WIDE * _height(b):
+            continue  # too small, or as thin as an arm
+        own = _own_outline(b, original) if original is not None else b
+        out.extend(split_at_heads(own, _MIN_HEIGHT_SHARE * min_height_px, floor))
     out.sort(key=lambda b: -b.area)
     return out[:max_count]
 
@@ -101,8 +110,8 @@ def _head_columns(rise: np.ndarray, h: int) -> list[int]:
 
 
 def _wide_enough(rise: np.ndarray, c: int, dip: float, wide: float) -> bool:
-    """The profile stays within ``dip`` of its peak at ``c`` over at least ``wide`` columns."""
-    above = rise >= rise[c] - dip
+    """The profile stays within half ``dip`` of its peak at ``c`` over at least ``wide`` columns."""
+    above = rise >= rise[c] - 0.5 * dip
     lo = c
     while lo > 0 and above[lo - 1]:
         lo -= 1
@@ -154,19 +163,41 @@ def _union(a: Blob, b: Blob, gap: int) -> Blob:
     return Blob(f.contour + at, f.area, (f.centroid[0] + x0, f.centroid[1] + y0))
 
 
+def _own_outline(group: Blob, original: np.ndarray) -> Blob:
+    """The one piece of ``original`` that makes up (90 % or more of) ``group``, else ``group``."""
+    x, y, w, h = cv2.boundingRect(group.contour.reshape(-1, 1, 2).astype(np.int32))
+    inside = np.zeros((h, w), np.uint8)
+    cv2.drawContours(inside, [(group.contour - np.array([x, y])).reshape(-1, 1, 2).astype(np.int32)], -1, 255,
+                     cv2.FILLED)
+    np.bitwise_and(inside, original[y:y + h, x:x + w], out=inside)
+    pieces = find_blobs(inside, 1.0, 2)
+    total = float(np.count_nonzero(inside))
+    if not pieces or pieces[0].area < 0.9 * total:
+        return group
+    f = pieces[0]
+    return Blob(f.contour + np.array([x, y]), f.area, (f.centroid[0] + x, f.centroid[1] + y))
+
+
+def _width(b: Blob) -> int:
+    return int(b.contour[:, 0].max()) - int(b.contour[:, 0].min()) + 1
+
+
 def _height(b: Blob) -> int:
     return int(b.contour[:, 1].max()) - int(b.contour[:, 1].min()) + 1
 
 
 class PersonFinder:
     """:func:`find_people` with the limits of one observer: the smallest person's height in work
-    pixels, ``max_people``, and a count of the frames that held more people than that (said once)."""
+    pixels, ``max_people``, and a count of the frames that held more people than that (said once);
+    ``still`` tells the people who have not moved for ``still_s`` seconds."""
 
-    def __init__(self, min_height_px: float, max_people: int, min_area_px: float = 0.0) -> None:
+    def __init__(self, min_height_px: float, max_people: int, min_area_px: float = 0.0, still_s: float = 0.0) -> None:
         self.min_height_px = min_height_px
         self.min_area_px = max(min_area_px, _MIN_AREA_PER_H2 * min_height_px * min_height_px)
         self._max = max_people
         self.crowd_frames = 0  # frames with more people in view than max_people
+        self.still = StillPeople(still_s)  # people who never move: ghosts
+        self._whole: dict[int, float] = {}  # person id → when last found as a blob of their own (s)
         k = max(3, round(_JOIN_WIDE * min_height_px)) | 1
         self._round = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
         self._upright = cv2.getStructuringElement(cv2.MORPH_RECT, (1, max(3, round(_JOIN_TALL * min_height_px)) | 1))
@@ -183,7 +214,7 @@ class PersonFinder:
             self._closed, self._work = np.empty_like(mask), np.empty_like(mask)
         work = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._round, dst=self._work)
         closed = cv2.morphologyEx(work, cv2.MORPH_CLOSE, self._upright, dst=self._closed)
-        people = find_people(closed, self.min_height_px, 2 * self._max + 8, self.min_area_px)
+        people = find_people(closed, self.min_height_px, 2 * self._max + 8, self.min_area_px, mask)
         self.most_seen = max(self.most_seen, len(people))
         if len(people) > self._max:
             if self.crowd_frames == 0:
@@ -191,6 +222,23 @@ class PersonFinder:
                             "not reported (raise max_people in [observers.webcam])", len(people), self._max)
             self.crowd_frames += 1
         return people[: self._max]
+
+    def apart(self, predicted: dict[int, tuple[tuple[float, float], int]], t: float) -> list[tuple[float, float]]:
+        """The predicted centroids of the people (id → (centroid, frames unseen)) who may cut a blob in
+        two: seen lately, and found as a blob of their own within ``_APART_S`` (else two pieces of one
+        person, found apart once, would keep cutting that person in two)."""
+        return [c for pid, (c, unseen) in predicted.items()
+                if unseen <= _SPLIT_UNSEEN_FRAMES and t - self._whole.get(pid, t) <= _APART_S]
+
+    def seen(self, ids: list[int], persons: list[PersonBlob], found: list[Blob], t: float) -> None:
+        """Note which people (``ids`` of ``persons``) were found whole this frame (one of the blobs
+        ``found``), not cut from others."""
+        whole = {id(b) for b in found}
+        for pid, p in zip(ids, persons, strict=True):
+            if id(p.blob) in whole or pid not in self._whole:
+                self._whole[pid] = t
+        self._whole = {pid: self._whole[pid] for pid in ids if pid in self._whole} | {
+            pid: w for pid, w in self._whole.items() if t - w <= _APART_S}
 
 
 def person_finder(cfg: WebcamObserverConfig, scale: float, work_size: tuple[int, int],
@@ -213,4 +261,34 @@ def person_finder(cfg: WebcamObserverConfig, scale: float, work_size: tuple[int,
         warnings.warn("observers.webcam.min_blob_area (a fraction of the image) is deprecated: set min_person_px, "
                       "the smallest person's height in pixels, instead (still applied this run)", FutureWarning,
                       stacklevel=3)
-    return PersonFinder(tall, cfg.max_people, area)
+    return PersonFinder(tall, cfg.max_people, area, cfg.still_to_background_s)
+
+
+class StillPeople:
+    """People who have not moved for ``after_s`` seconds: a ghost (what stood in the background while it
+    was learned, or a light that changed) rather than a person, who always moves a little. Motion is a
+    grey-level change above ``_MOVED_LEVEL`` between frames in at least ``_MOVED_SHARE`` of the blob."""
+
+    def __init__(self, after_s: float) -> None:
+        self._after = after_s
+        self._moved: dict[int, float] = {}  # person id → when it last moved (frame time, s)
+
+    def still(self, ids: list[int], blobs: list[Blob], grey: np.ndarray, prev: np.ndarray | None,
+              t: float) -> list[Blob]:
+        """The blobs (of people ``ids``) that have not moved for ``after_s`` (none when 0)."""
+        if self._after <= 0 or prev is None or prev.shape != grey.shape:
+            return []
+        out: list[Blob] = []
+        moved: dict[int, float] = {}
+        for pid, b in zip(ids, blobs, strict=True):
+            x0, y0 = b.contour.min(axis=0)
+            x1, y1 = b.contour.max(axis=0) + 1
+            changed = cv2.absdiff(grey[y0:y1, x0:x1], prev[y0:y1, x0:x1]) > _MOVED_LEVEL
+            if np.count_nonzero(changed) >= _MOVED_SHARE * b.area:
+                moved[pid] = t
+            else:
+                moved[pid] = self._moved.get(pid, t)
+                if t - moved[pid] >= self._after:
+                    out.append(b)
+        self._moved = moved
+        return out

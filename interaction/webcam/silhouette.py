@@ -151,20 +151,36 @@ class BackgroundModel:
         return cv2.morphologyEx(closed, cv2.MORPH_CLOSE, self._bridge, dst=a.opened)
 
     def refresh(self, bgr: np.ndarray, people: np.ndarray | None) -> None:
-        """Blend the frame into the background at ``refresh_rate``: where no person stands (``people``,
-        uint8 255 = a person, grown by the caller; None = no one), or everywhere once no one has been
-        in view for ``refresh_after_empty_frames`` frames."""
-        if self._bg is None or self._cfg.refresh_rate <= 0:
+        """Blend the frame into the background: at ``adapt_rate`` where no person stands (``people``,
+        uint8 255 = a person, grown by the caller; None = no one), and at ``refresh_rate`` everywhere once
+        no one has been in view for ``refresh_after_empty_frames`` frames."""
+        if self._bg is None or self._bg_sq is None:
             return
+        cfg = self._cfg
         self._empty_run = 0 if people is not None else self._empty_run + 1
-        if people is None or self._empty_run > self._cfg.refresh_after_empty_frames:
-            cv2.accumulateWeighted(bgr, self._bg, self._cfg.refresh_rate)
-        else:
+        if self._empty_run > cfg.refresh_after_empty_frames and cfg.refresh_rate > 0:
+            cv2.accumulateWeighted(bgr, self._bg, cfg.refresh_rate)
+        elif cfg.adapt_rate > 0 and people is None:
+            cv2.accumulateWeighted(bgr, self._bg, cfg.adapt_rate)
+        elif cfg.adapt_rate > 0 and people is not None:
             if self._outside is None or self._outside.shape != people.shape:
                 self._outside = np.empty_like(people)
-            outside = cv2.bitwise_not(people, dst=self._outside)
-            cv2.accumulateWeighted(bgr, self._bg, self._cfg.refresh_rate, mask=outside)
+            cv2.accumulateWeighted(bgr, self._bg, cfg.adapt_rate, mask=cv2.bitwise_not(people, dst=self._outside))
+        else:
+            return
         cv2.multiply(self._bg, self._bg, dst=self._bg_sq)
+
+    def absorb(self, bgr: np.ndarray, contour: np.ndarray) -> None:
+        """The frame taken as the background inside an outline (M, 2) (a ghost, a changed light)."""
+        if self._bg is None or self._bg_sq is None:
+            return
+        x0, y0 = contour.min(axis=0)
+        x1, y1 = contour.max(axis=0) + 1
+        inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.drawContours(inside, [(contour - np.array([x0, y0])).reshape(-1, 1, 2).astype(np.int32)], -1, 1, cv2.FILLED)
+        box = self._bg[y0:y1, x0:x1]
+        np.copyto(box, bgr[y0:y1, x0:x1], where=inside[:, :, None] > 0, casting="unsafe")
+        np.multiply(box, box, out=self._bg_sq[y0:y1, x0:x1])
 
     def _measure_gain(self, img: np.ndarray, ignore: np.ndarray | None) -> tuple[float, float, float]:
         assert self._bg is not None

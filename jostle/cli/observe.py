@@ -24,6 +24,7 @@ EXAMPLES = """\
 examples:
   jostle observe street.mp4 --no-pose --json              people per frame, as JSON
   jostle observe street.mp4 --frames 100:400 --out out/   the annotated video out/street-observed.mp4
+  jostle observe street.mp4 --min-person-px 60 --json     people as small as 60 pixels tall
   jostle observe 0 --config configs/webcam.toml --out out/   a live camera with an installation's settings
   jostle observe session.mcap --pose                      a recording's colour channel, with keypoints
 """
@@ -43,6 +44,8 @@ def add(sub: Any) -> None:
     pose = p.add_mutually_exclusive_group()
     pose.add_argument("--pose", dest="pose", action="store_true", default=None, help="body keypoints on")
     pose.add_argument("--no-pose", dest="pose", action="store_false", help="body keypoints off")
+    p.add_argument("--min-person-px", type=int, metavar="PX",
+                   help="the smallest person's height in the frame's pixels (overrides the config's min_person_px)")
     p.add_argument("--json", action="store_true", help="print the figures as one JSON object on stdout")
     p.add_argument("--out", type=Path, metavar="DIR", help="write the annotated video DIR/<source>-observed.mp4")
     p.set_defaults(func=_run)
@@ -70,6 +73,8 @@ def _run(args: argparse.Namespace) -> int:
     cfg = _observer_config(args.config) if args.config else WebcamObserverConfig()
     if args.pose is not None:
         cfg = dataclasses.replace(cfg, pose=args.pose)
+    if args.min_person_px is not None:
+        cfg = _replaced(cfg, min_person_px=args.min_person_px)
     observer = WebcamObserver(cfg)
     frames, fps = _frames(args.source)
     counts: list[int] = []
@@ -112,6 +117,15 @@ def _run(args: argparse.Namespace) -> int:
         print(f"jostle: observed {len(counts)} frames at {figures['observe_fps']} frames/s; people in {seen} of them, "
               f"at most {max(counts, default=0)}", file=sys.stderr)
     return 0
+
+
+def _replaced(cfg: Any, **changes: Any) -> Any:
+    from jostle.errors import UsageError
+
+    try:
+        return dataclasses.replace(cfg, **changes)
+    except ValueError as e:
+        raise UsageError(f"--{next(iter(changes)).replace('_', '-')}: {e}") from None
 
 
 def _observer_config(path: Path) -> Any:
