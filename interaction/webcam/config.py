@@ -87,7 +87,7 @@ class WebcamObserverConfig:
     refresh_rate: float = 0.02
     refresh_after_empty_frames: int = 30
     adapt_rate: float = 0.01
-    still_to_background_s: float = 4.0
+    still_to_background_s: float = 1.0
     pose: bool = False
     pose_model_dir: str = ""
     pose_min_score: float = 0.5

@@ -35,7 +35,7 @@ from interaction.webcam.people_found import PersonFinder, person_finder
 from interaction.webcam.pose import Keypoints, PoseModel, PoseModelError, PoseTracker
 from interaction.webcam.pose_models import default_model_dir, find_models
 from interaction.webcam.silhouette import BackgroundModel
-from interaction.webcam.silhouette_parts import PersonBlob, feet, join_fragments, split_people
+from interaction.webcam.silhouette_parts import PersonBlob, feet, join_fragments
 from sensors.base import ColorImage, Frame
 
 __all__ = ["WebcamObserver", "WebcamObserverConfig"]
@@ -204,7 +204,7 @@ class WebcamObserver:
         recent: list[tuple[float, float]] = []
         if self._tracker is not None and found:  # people who walked into each other: cut where each was
             recent = finder.apart(self._tracker.predicted(), frame.t)
-        persons = split_people(found, recent, finder.min_area_px)[: cfg.max_people]
+        persons = finder.cut(found, recent)[: cfg.max_people]
         blobs = [p.blob for p in persons]
 
         people = np.zeros_like(mask)

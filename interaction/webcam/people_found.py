@@ -19,7 +19,7 @@ import numpy as np
 from interaction.people import Blob, find_blobs
 from interaction.webcam.calibration import Calibration
 from interaction.webcam.config import WebcamObserverConfig
-from interaction.webcam.silhouette_parts import PersonBlob
+from interaction.webcam.silhouette_parts import PersonBlob, split_people
 
 __all__ = ["PersonFinder", "StillPeople", "find_people", "person_finder", "split_at_heads"]
 
@@ -222,6 +222,19 @@ class PersonFinder:
                             "not reported (raise max_people in [observers.webcam])", len(people), self._max)
             self.crowd_frames += 1
         return people[: self._max]
+
+    def cut(self, found: list[Blob], predicted: list[tuple[float, float]]) -> list[PersonBlob]:
+        """Each blob cut between the people predicted in it (:func:`split_people`) when every part is
+        person-like (half the smallest person tall, ``_MIN_WIDE`` of that wide), else left whole."""
+        out: list[PersonBlob] = []
+        for blob in found:
+            parts = split_people([blob], predicted, self.min_area_px) if predicted else [PersonBlob(blob)]
+            if len(parts) > 1 and not all(_height(p.blob) >= _MIN_HEIGHT_SHARE * self.min_height_px
+                                          and _width(p.blob) >= _MIN_WIDE * _height(p.blob) for p in parts):
+                parts = [PersonBlob(blob)]
+            out.extend(parts)
+        out.sort(key=lambda p: -p.blob.area)
+        return out
 
     def apart(self, predicted: dict[int, tuple[tuple[float, float], int]], t: float) -> list[tuple[float, float]]:
         """The predicted centroids of the people (id → (centroid, frames unseen)) who may cut a blob in

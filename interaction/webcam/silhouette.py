@@ -22,7 +22,8 @@ __all__ = ["BackgroundModel"]
 _GAIN_STRIDE = 6  # measure the light gain on every 6th pixel in each direction
 _MIN_BG_LEVEL = 12.0  # background channel values below this tell nothing about the gain
 _IQR_PER_SIGMA = 1.349  # a normal distribution's interquartile range, in σ
-_MAX_THRESHOLD_SHARE = 2.0  # a pixel's noise raises its threshold to at most this many diff_threshold
+_MAX_THRESHOLD_SHARE = 2.0  # a pixel's noise raises its threshold to at most this many diff_threshold,
+_MAX_THRESHOLD_NOISE = 3.0  # ... or this many times the median pixel's (a camera's own noise)
 _CHANNEL_MEAN = np.full((1, 3), 1.0 / 3.0, dtype=np.float32)
 _ONES = np.ones((1, 3), dtype=np.float32)  # sums a pixel's three channels
 
@@ -98,7 +99,9 @@ class BackgroundModel:
         sigma = cv2.blur(spread.astype(np.float32), (5, 5))
         # capped: where someone moved while learning (a person in view at start) they stay detectable
         base = np.float32(self._cfg.diff_threshold)
-        thr = np.clip(np.float32(self._cfg.noise_sigmas) * sigma, base, _MAX_THRESHOLD_SHARE * base)
+        noise = np.float32(self._cfg.noise_sigmas) * sigma
+        cap = np.float32(max(float(_MAX_THRESHOLD_SHARE * base), _MAX_THRESHOLD_NOISE * float(np.median(noise))))
+        thr = np.clip(noise, base, cap)
         self._bg = bg
         self._bg_sq = bg * bg
         self._thr2 = (thr * thr).astype(np.float32)
