@@ -218,7 +218,7 @@ class WebcamObserver:
             self._tracker = PeopleTracker(cfg.match_distance * math.hypot(w, h), cfg.track_memory_frames)
         ids = self._tracker.assign([b.centroid for b in blobs])  # also ages the people not seen
         finder.seen(ids, persons, found, frame.t)
-        for ghost in finder.still.still(ids, blobs, grey, prev_grey, frame.t):
+        for ghost in finder.still.still(ids, blobs, grey, prev_grey, frame.t, self._background.grey):
             self._background.absorb(work, ghost.contour)  # gone from the next frame on
         if self._pose is not None:
             self._pose.forget(set(ids))

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import warnings
+from collections.abc import Callable
 
 import cv2
 import numpy as np
@@ -278,30 +279,43 @@ def person_finder(cfg: WebcamObserverConfig, scale: float, work_size: tuple[int,
 
 
 class StillPeople:
-    """People who have not moved for ``after_s`` seconds: a ghost (what stood in the background while it
-    was learned, or a light that changed) rather than a person, who always moves a little. Motion is a
-    grey-level change above ``_MOVED_LEVEL`` between frames in at least ``_MOVED_SHARE`` of the blob."""
+    """Ghosts: "people" who have not moved for ``after_s`` seconds and whose outline is an edge of the
+    learned background rather than of the frame (what stood there while it was learned, and left). A
+    person standing still keeps their own edges in the frame and stays. Motion is a grey-level change
+    above ``_MOVED_LEVEL`` between frames in at least ``_MOVED_SHARE`` of the blob."""
 
     def __init__(self, after_s: float) -> None:
         self._after = after_s
         self._moved: dict[int, float] = {}  # person id → when it last moved (frame time, s)
 
-    def still(self, ids: list[int], blobs: list[Blob], grey: np.ndarray, prev: np.ndarray | None,
-              t: float) -> list[Blob]:
-        """The blobs (of people ``ids``) that have not moved for ``after_s`` (none when 0)."""
+    def still(self, ids: list[int], blobs: list[Blob], grey: np.ndarray, prev: np.ndarray | None, t: float,
+              background: Callable[[], np.ndarray | None]) -> list[Blob]:
+        """The ghosts among the blobs (of people ``ids``; none when ``after_s`` is 0); ``background``
+        gives the learned background, grey, the size of ``grey`` (asked only when a blob is still)."""
         if self._after <= 0 or prev is None or prev.shape != grey.shape:
             return []
         out: list[Blob] = []
         moved: dict[int, float] = {}
+        bg: np.ndarray | None = None
         for pid, b in zip(ids, blobs, strict=True):
             x0, y0 = b.contour.min(axis=0)
             x1, y1 = b.contour.max(axis=0) + 1
             changed = cv2.absdiff(grey[y0:y1, x0:x1], prev[y0:y1, x0:x1]) > _MOVED_LEVEL
-            if np.count_nonzero(changed) >= _MOVED_SHARE * b.area:
-                moved[pid] = t
-            else:
-                moved[pid] = self._moved.get(pid, t)
-                if t - moved[pid] >= self._after:
-                    out.append(b)
+            moved[pid] = t if np.count_nonzero(changed) >= _MOVED_SHARE * b.area else self._moved.get(pid, t)
+            if t - moved[pid] < self._after:
+                continue
+            bg = background() if bg is None else bg
+            if bg is not None and _edge_along(bg, b.contour) > _edge_along(grey, b.contour):
+                out.append(b)
         self._moved = moved
         return out
+
+
+def _edge_along(grey: np.ndarray, contour: np.ndarray) -> float:
+    """The mean grey-level gradient (Sobel, magnitude) of an image at the points of an outline."""
+    x0, y0 = np.maximum(contour.min(axis=0) - 2, 0)
+    x1, y1 = contour.max(axis=0) + 3
+    crop = grey[y0:y1, x0:x1].astype(np.float32)
+    gx, gy = cv2.Sobel(crop, cv2.CV_32F, 1, 0), cv2.Sobel(crop, cv2.CV_32F, 0, 1)
+    u, v = contour[:, 0] - x0, contour[:, 1] - y0
+    return float(np.hypot(gx[v, u], gy[v, u]).mean())

@@ -173,6 +173,11 @@ class BackgroundModel:
             return
         cv2.multiply(self._bg, self._bg, dst=self._bg_sq)
 
+    def grey(self) -> np.ndarray | None:
+        """The learned background in grey levels (uint8, a new array), or None while learning."""
+        bg = self.background
+        return None if bg is None else cv2.cvtColor(bg, cv2.COLOR_BGR2GRAY)
+
     def absorb(self, bgr: np.ndarray, contour: np.ndarray) -> None:
         """The frame taken as the background inside an outline (M, 2) (a ghost, a changed light)."""
         if self._bg is None or self._bg_sq is None:
