@@ -170,3 +170,10 @@ def test_jostle_observe_refuses_a_missing_video_in_one_line(tmp_path: Path, caps
     assert main(["observe", str(tmp_path / "nothing.mp4")]) == 2
     err = capsys.readouterr().err.strip()
     assert "nothing.mp4" in err and "\n" not in err
+
+
+def test_jostle_observe_reads_a_recordings_colour_channel(capsys: pytest.CaptureFixture[str]) -> None:
+    # the virtual performer's recording of two people crossing (webcam, depth and pads channels)
+    assert main(["observe", str(HERE.parent / "crossing2.mcap"), "--no-pose", "--json"]) == 0
+    figures = json.loads(capsys.readouterr().out)
+    assert figures["frames"] == 65 and max(figures["people"]) == 2

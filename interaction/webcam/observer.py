@@ -211,8 +211,8 @@ class WebcamObserver:
         if blobs:
             cv2.drawContours(people, [b.contour.reshape(-1, 1, 2) for b in blobs], -1, 255, cv2.FILLED)
         people.flags.writeable = False
-        grown = cv2.dilate(people, self._grow_kernel, dst=same_size(self._grown, people.shape, np.uint8))
-        self._background.refresh(work, grown if blobs else None)
+        grown = cv2.dilate(people, self._grow_kernel, dst=same_size(self._grown, people.shape, np.uint8)) if blobs else None
+        self._background.refresh(work, grown)  # adapts where no one stands
         self._mask, self._silhouette = people, None
         if self._tracker is None:
             self._tracker = PeopleTracker(cfg.match_distance * math.hypot(w, h), cfg.track_memory_frames)
@@ -238,10 +238,8 @@ class WebcamObserver:
             contactors.extend(self._contactors(pid, person, people, 0.0 if pid in born else dt))
         if self._pose is not None:
             contactors.extend(self._limb_contactors(bgr, ids, blobs, people, frame.t, dt, born))
-        if self._calibrated is None:
-            self._image_contactors = tuple(contactors)
-            return BodyObservation(t=frame.t, people=len(blobs))
-        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(blobs))
+        self._image_contactors = () if self._calibrated else tuple(contactors)  # uncalibrated: kept apart, none out
+        return BodyObservation(t=frame.t, contactors=tuple(contactors) if self._calibrated else (), people=len(blobs))
 
     # ------------------------------------------------------------ internals
 
