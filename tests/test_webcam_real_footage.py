@@ -9,6 +9,7 @@ people as max(0, reported - seen) over reported; frames while the background is 
 from __future__ import annotations
 
 import json
+import logging
 import tomllib
 from pathlib import Path
 
@@ -177,3 +178,19 @@ def test_jostle_observe_reads_a_recordings_colour_channel(capsys: pytest.Capture
     assert main(["observe", str(HERE.parent / "crossing2.mcap"), "--no-pose", "--json"]) == 0
     figures = json.loads(capsys.readouterr().out)
     assert figures["frames"] == 65 and max(figures["people"]) == 2
+
+
+def test_a_crowd_larger_than_max_people_is_counted_and_said_once(caplog: pytest.LogCaptureFixture) -> None:
+    frames, fps = video("face-demographics-walking.mp4")
+    with caplog.at_level(logging.WARNING, logger="jostle.webcam"):
+        observer, counts = observe(frames, fps, WebcamObserverConfig(min_person_px=80, max_people=1))
+    assert max(counts) == 1 and observer.crowd_frames >= 10  # two people side by side in most frames
+    said = [r for r in caplog.records if "more than max_people = 1" in r.getMessage()]
+    assert len(said) == 1
+
+
+def test_the_old_min_blob_area_still_works_with_a_warning_saying_what_to_write() -> None:
+    frames, fps = video("one-by-one-30-270.mp4")
+    with pytest.warns(FutureWarning, match=r"min_blob_area .* deprecated: set min_person_px"):
+        _, counts = observe(frames[:60], fps, WebcamObserverConfig(min_blob_area=0.003))
+    assert max(counts) == 1
