@@ -5,6 +5,10 @@ hidden by a table still counts), joins the two halves of a person a post cuts in
 together no wider than one person), and cuts blobs of people standing side by side at the dip
 between their head tops (the topmost foreground row per column has two or more peaks, a head wide,
 each well above the dip; the cut is the column with the fewest foreground pixels between two heads).
+:class:`PersonFinder` holds one observer's limits: it first joins a person's pieces (a closing sized by
+the smallest person), counts crowds over ``max_people``, cuts blobs between people predicted in them
+only into person-like parts, and tells ghosts (:class:`StillPeople`: still, with the background's edges
+rather than the frame's). :func:`person_finder` sizes it from the config and the calibration.
 All in work pixels; nothing here knows the stage.
 """
 
