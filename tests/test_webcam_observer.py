@@ -195,7 +195,8 @@ def test_frames_other_than_colour_images_are_refused() -> None:
 def test_learning_then_nothing_on_an_empty_stage_under_drifting_light(refresh: bool) -> None:
     w, h = 320, 240
     cal = calibration_for(w, h)
-    config = WebcamObserverConfig(learn_frames=LEARN, refresh_after_empty_frames=20 if refresh else 10_000)
+    config = WebcamObserverConfig(learn_frames=LEARN, refresh_after_empty_frames=20 if refresh else 10_000,
+                                  adapt_rate=0.01 if refresh else 0.0)
     observer = WebcamObserver(config, cal)
     bg = background(w, h)
     rng = np.random.default_rng(1)

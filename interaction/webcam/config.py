@@ -24,20 +24,27 @@ class WebcamObserverConfig:
     ``morphology_px`` and ``flow_window_px`` count pixels of the shrunk frame, ``contour_spacing_px``
     pixels of the original frame (the calibration's).
 
-    Background: the median of the first ``learn_frames`` frames (the stage must be empty then),
-    refreshed at ``refresh_rate`` per frame only once no one has been in view for
-    ``refresh_after_empty_frames`` frames. Global light change is undone before differencing
-    (per-channel gain of the frame against the background, measured where no one stands).
+    Background: the median of the first ``learn_frames`` frames, then adapted at ``adapt_rate`` per
+    frame wherever no person stands (selective: a scene that never empties still adapts), and at
+    ``refresh_rate`` everywhere once no one has been in view for ``refresh_after_empty_frames``
+    frames; a "person" who
+    has not moved at all for ``still_to_background_s`` seconds (0: never) is taken into it (a ghost of
+    what stood there while learning, a changed light). Global light
+    change is undone before differencing (per-channel gain measured where no one stands).
 
     Foreground: colour distance to the background above ``diff_threshold`` (BGR units 0–255) and
     above ``noise_sigmas`` × the pixel's own noise measured while learning; minus shadows: pixels
     darker than the background by a ratio in [``shadow_min_ratio``, 1] whose colour is the
-    background's within ``shadow_colour_tolerance`` (a fraction of the brightness).
+    background's within ``shadow_colour_tolerance`` (a fraction of the brightness), and likewise
+    local light: brighter by a ratio up to ``highlight_max_ratio`` with the background's colour.
 
-    People: blobs of at least ``min_blob_area`` (fraction of the image) after a morphological
-    open/close of ``morphology_px`` (an even size counts as the next odd one) and an upright close
-    of twice that (bridging a band of the body that looks like the background, a belt or a lit
-    thigh); at most ``max_people`` (largest first); ids follow the nearest centroid within
+    People: blobs at least half as tall as the smallest person, ``min_person_px`` pixels of the
+    frame (0: ``min_person_m`` metres through the calibration where it shrinks most, or a quarter
+    of the frame's height uncalibrated), after a morphological open/close of ``morphology_px`` and
+    an upright close of twice that; side-by-side people cut at the dip between their head tops
+    (:mod:`interaction.webcam.people_found`); at most ``max_people`` (largest first; more are
+    counted and said once). ``min_blob_area`` (a fraction of the image) is the old, deprecated
+    size limit: still applied when set, with a warning. Ids follow the nearest centroid within
     ``match_distance`` (fraction of the image diagonal) and survive ``track_memory_frames`` frames
     unseen. A blob holding several people's predicted centroids is cut between them.
 
@@ -68,8 +75,11 @@ class WebcamObserverConfig:
     shadow_min_ratio: float = 0.6
     shadow_colour_tolerance: float = 0.12
     morphology_px: int = 3
-    min_blob_area: float = 0.003
-    max_people: int = 4
+    min_person_px: int = 0
+    min_person_m: float = 1.0
+    min_blob_area: float | None = None
+    max_people: int = 8
+    highlight_max_ratio: float = 1.35
     contour_spacing_px: float = 12.0
     contactor_radius_m: float = 0.0
     flow_preset: FlowPreset = "ultrafast"
@@ -79,6 +89,8 @@ class WebcamObserverConfig:
     track_memory_frames: int = 15
     refresh_rate: float = 0.02
     refresh_after_empty_frames: int = 30
+    adapt_rate: float = 0.01
+    still_to_background_s: float = 1.0
     pose: bool = False
     pose_model_dir: str = ""
     pose_min_score: float = 0.5
@@ -107,7 +119,11 @@ class WebcamObserverConfig:
         number("shadow_min_ratio", 0.0, 1.0)
         number("shadow_colour_tolerance", 0.0, 1.0)
         whole("morphology_px", 1, 99)
-        number("min_blob_area", 0.0, 1.0, lo_open=True)
+        whole("min_person_px", 0, 100000)
+        number("min_person_m", 0.1, 3.0)
+        if self.min_blob_area is not None:
+            number("min_blob_area", 0.0, 1.0, lo_open=True)
+        number("highlight_max_ratio", 1.0, 4.0)
         whole("max_people", 1, 64)
         number("contour_spacing_px", 1.0, 1000.0)
         number("contactor_radius_m", 0.0, 10.0)
@@ -118,7 +134,9 @@ class WebcamObserverConfig:
         number("match_distance", 0.0, 2.0, lo_open=True)
         whole("track_memory_frames", 0, 100000)
         number("refresh_rate", 0.0, 1.0)
+        number("adapt_rate", 0.0, 1.0)
         whole("refresh_after_empty_frames", 0, 100000)
+        number("still_to_background_s", 0.0, 86400.0)
         _need(isinstance(self.pose, bool), "pose", "true or false", self.pose)
         _need(isinstance(self.pose_model_dir, str), "pose_model_dir", "a folder path (\"\" = the default cache)",
               self.pose_model_dir)

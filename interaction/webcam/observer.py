@@ -10,7 +10,8 @@ the calibration onto the stage plane (or floor). A hand or foot that cannot be p
 background like them, a person cut from others) is left out rather than reported at a wrong place.
 With ``pose`` on, BlazePose's keypoints per person (:mod:`interaction.webcam.pose`, run beside the loop
 by :mod:`interaction.webcam.pose_worker`) add hands and feet as contactors with their own velocities.
-Pure of hardware: feed it :class:`sensors.Frame` objects from anywhere.
+Uncalibrated (``jostle observe``), observations carry the people count only; the contactors in image
+pixels are :attr:`WebcamObserver.image_contactors`. Pure of hardware.
 
 A frame allocates no image-sized arrays but the one it hands out (the people's mask) and the flow DIS
 returns: the work arrays are kept from frame to frame (why: docs/notes/webcam.md).
@@ -25,17 +26,19 @@ import cv2
 import numpy as np
 import numpy.ma  # noqa: F401  np.median imports it on first use (~16 ms): at import, not in the first frame
 
-from interaction.people import Blob, PeopleTracker, find_blobs, outline_points
+from interaction.people import PeopleTracker
 from interaction.types import BodyObservation, Contactor, Silhouette
 from interaction.webcam.calibration import Calibration
 from interaction.webcam.config import FlowPreset, WebcamObserverConfig
-from interaction.webcam.floor_people import FloorCalibration, FloorPeople, flow_back
-from interaction.webcam.people_flow import joined_boxes, median_flow
+from interaction.webcam.floor_people import FloorCalibration, FloorPeople
+from interaction.webcam.people_flow import people_flow, same_size
+from interaction.webcam.people_found import PersonFinder, person_finder
 from interaction.webcam.pose import Keypoints
 from interaction.webcam.pose_limbs import PoseLimbs
 from interaction.webcam.pose_worker import PoseWorker
 from interaction.webcam.silhouette import BackgroundModel
-from interaction.webcam.silhouette_parts import PersonBlob, feet, join_fragments, split_people
+from interaction.webcam.silhouette_parts import join_fragments
+from interaction.webcam.stage_placement import StagePlacement, to_input_px
 from sensors.base import ColorImage, Frame
 
 __all__ = ["WebcamObserver", "WebcamObserverConfig"]
@@ -47,9 +50,7 @@ _DIS_PRESETS: dict[FlowPreset, int] = {
     "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
     "medium": cv2.DISOPTICAL_FLOW_PRESET_MEDIUM,
 }
-_RADIUS_PER_SPACING = 0.6  # derived radius: neighbouring outline contactors overlap a little
-_FLOW_MARGIN = 24  # work pixels of context around the people for the optical flow
-_SPLIT_UNSEEN_FRAMES = 5  # people unseen longer do not cut a blob in two
+_PIXELS = Calibration((1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), half_depth=0.0)  # uncalibrated: (u, v) → (u, v)
 
 
 class WebcamObserver:
@@ -57,13 +58,18 @@ class WebcamObserver:
 
     The first ``config.learn_frames`` frames learn the empty stage; meanwhile (``learning``)
     every observation is empty. Contactors are capsules along the stage's y axis at
-    ``calibration.plane_y`` ± ``calibration.half_depth``; velocities have no y part (floor: :class:`FloorPeople`).
+    ``calibration.plane_y`` ± ``calibration.half_depth``; velocities have no y part (floor: :class:`FloorPeople`; none uncalibrated).
     """
 
-    def __init__(self, config: WebcamObserverConfig, calibration: Calibration | FloorCalibration) -> None:
+    def __init__(self, config: WebcamObserverConfig, calibration: Calibration | FloorCalibration | None = None) -> None:
         self._cfg = config  # a floor calibration places people (``_floor``); ``_cal`` is then its upright plane
         self._floor = FloorPeople(calibration, config) if isinstance(calibration, FloorCalibration) else None
-        self._cal = calibration.upright() if isinstance(calibration, FloorCalibration) else calibration
+        upright = calibration.upright() if isinstance(calibration, FloorCalibration) else calibration
+        self._calibrated, self._cal = upright, upright or _PIXELS  # None: uncalibrated, image space only
+        self._placing = StagePlacement(config, self._cal, self._floor)
+        self._finder: PersonFinder | None = None  # made by the first frame (its size sets the pixel limits)
+        self._outlines: dict[int, np.ndarray] = {}  # the people: id → outline
+        self._image_contactors: tuple[Contactor, ...] = ()  # uncalibrated: in image pixels
         self._background = BackgroundModel(config)
         self._tracker: PeopleTracker | None = None
         self._flow = cv2.DISOpticalFlow.create(_DIS_PRESETS[config.flow_preset])
@@ -92,8 +98,23 @@ class WebcamObserver:
         return self._cfg
 
     @property
-    def calibration(self) -> Calibration:
-        return self._cal
+    def calibration(self) -> Calibration | None:  # None: uncalibrated; a floor calibration: its upright plane
+        return self._calibrated
+
+    @property
+    def people(self) -> dict[int, np.ndarray]:
+        """The last frame's people: id → outline (M, 2) in input pixels (float)."""
+        return self._outlines
+
+    @property
+    def image_contactors(self) -> tuple[Contactor, ...]:
+        """Uncalibrated only: the last frame's contactors in input pixels (position (u, 0, v), px/s, radius px)."""
+        return self._image_contactors
+
+    @property
+    def crowd_frames(self) -> int:
+        """Frames that held more people than ``max_people`` (the smallest of them not reported)."""
+        return self._finder.crowd_frames if self._finder is not None else 0
 
     @property
     def learning(self) -> bool:
@@ -172,6 +193,7 @@ class WebcamObserver:
         """Forget the background and the people; the next frames learn the empty stage again."""
         self._background.relearn()
         self._tracker = None
+        self._finder, self._outlines, self._image_contactors = None, {}, ()
         if self._pose is not None:
             self._pose.reset()
         self._input_size = None
@@ -186,7 +208,7 @@ class WebcamObserver:
         or whose size differs from the calibration's or from the frames before it."""
         bgr = self._check(frame)
         work = self._work_image(bgr)
-        grey = cv2.cvtColor(work, cv2.COLOR_BGR2GRAY, dst=_same_size(self._spare_grey, work.shape[:2], np.uint8))
+        grey = cv2.cvtColor(work, cv2.COLOR_BGR2GRAY, dst=same_size(self._spare_grey, work.shape[:2], np.uint8))
         prev_grey, prev_t = self._prev_grey, self._prev_t
         self._prev_grey, self._prev_t = grey, frame.t
         self._spare_grey = prev_grey  # still read this frame (the flow); written into next frame
@@ -199,23 +221,30 @@ class WebcamObserver:
         cfg = self._cfg
         h, w = grey.shape
         mask = self._background.foreground(work, ignore=self._ignore_for_light())
-        found = join_fragments(find_blobs(mask, cfg.min_blob_area * w * h, 2 * cfg.max_people))[: cfg.max_people]
+        finder = self._finder = self._finder or person_finder(cfg, self._scale, (w, h), self._calibrated, self._input_size)
+        found = join_fragments(finder.find(mask))
         recent: list[tuple[float, float]] = []
         if self._tracker is not None and found:  # people who walked into each other: cut where each was
-            recent = [c for c, unseen in self._tracker.predicted().values() if unseen <= _SPLIT_UNSEEN_FRAMES]
-        persons = split_people(found, recent, cfg.min_blob_area * w * h)[: cfg.max_people]
+            recent = finder.apart(self._tracker.predicted(), frame.t)
+        persons = finder.cut(found, recent)[: cfg.max_people]
         blobs = [p.blob for p in persons]
-        self._background.refresh(work, someone_in_view=bool(blobs))
 
         people = np.zeros_like(mask)
         if blobs:
             cv2.drawContours(people, [b.contour.reshape(-1, 1, 2) for b in blobs], -1, 255, cv2.FILLED)
+        grown = cv2.dilate(people, self._grow_kernel, dst=same_size(self._grown, people.shape, np.uint8)) if blobs else None
+        self._background.refresh(work, grown)  # adapts where no one stands
         people.flags.writeable = False
         self._mask, self._silhouette = people, None
         if self._tracker is None:
             self._tracker = PeopleTracker(cfg.match_distance * math.hypot(w, h), cfg.track_memory_frames)
         ids = self._tracker.assign([b.centroid for b in blobs])  # also ages the people not seen
-        seen = Silhouette(self.silhouette, self._cal)  # type: ignore[arg-type]  # (set just above)
+        finder.seen(ids, persons, found, frame.t)
+        for ghost in finder.still.still(ids, blobs, grey, prev_grey, frame.t, self._background.grey):
+            self._background.absorb(work, ghost.contour)  # gone from the next frame on
+        self._outlines = {i: self._to_input_px(b.contour.astype(np.float64)) for i, b in zip(ids, blobs, strict=True)}
+        self._image_contactors = ()
+        seen = Silhouette(self.silhouette, self._calibrated) if self._calibrated is not None else None  # type: ignore[arg-type]
         if not blobs:
             if self._pose is not None:
                 self._pose.update(frame.t, bgr, [], [])  # everyone is forgotten, by the worker too
@@ -224,14 +253,18 @@ class WebcamObserver:
 
         dt = frame.t - prev_t if prev_t is not None else 0.0
         if prev_grey is not None and dt > 0 and len(born) < len(ids):
-            self._flow_px = self._people_flow(grey, prev_grey, blobs)
+            self._flow_work = same_size(self._flow_work, (*grey.shape, 2), np.float32)
+            self._flow_px = people_flow(self._flow, grey, prev_grey, blobs, self._flow_work)
 
         contactors: list[Contactor] = []
         for pid, person in sorted(zip(ids, persons, strict=True), key=lambda p: p[0]):
-            contactors.extend(self._contactors(pid, person, people, 0.0 if pid in born else dt))
+            contactors.extend(self._placing.body(pid, person, people, 0.0 if pid in born else dt, self._flow_px, self._scale))
         if self._pose is not None:
-            contactors.extend(self._limb_contactors(bgr, ids, blobs, people, frame.t, dt, born))
-        return BodyObservation(t=frame.t, contactors=tuple(contactors), people=len(blobs), silhouette=seen)
+            contactors.extend(self._placing.limbs(self._pose, bgr, ids, blobs, people, frame.t, dt, born, self._flow_px,
+                                                   self._scale))
+        self._image_contactors = () if self._calibrated else tuple(contactors)  # uncalibrated: kept apart, none out
+        return BodyObservation(t=frame.t, contactors=tuple(contactors) if self._calibrated else (), people=len(blobs),
+                               silhouette=seen)
 
     # ------------------------------------------------------------ internals
 
@@ -272,121 +305,15 @@ class WebcamObserver:
             return bgr
         h, w = bgr.shape[:2]
         size = (max(1, round(w * self._scale)), max(1, round(h * self._scale)))
-        self._work = _same_size(self._work, (size[1], size[0], 3), np.uint8)
+        self._work = same_size(self._work, (size[1], size[0], 3), np.uint8)
         return cv2.resize(bgr, size, dst=self._work, interpolation=cv2.INTER_AREA)
 
     def _to_input_px(self, uv_work: np.ndarray) -> np.ndarray:
-        """Work pixel coordinates → input pixel coordinates (pixel centres kept aligned)."""
-        if self._scale == 1.0:
-            return uv_work
-        return (uv_work + 0.5) / self._scale - 0.5
+        return to_input_px(self._scale, uv_work)
 
     def _ignore_for_light(self) -> np.ndarray | None:
         """Where people stood last frame, grown a little: left out of the light measurement."""
         if self._mask is None or not self._mask.any():
             return None
-        self._grown = _same_size(self._grown, self._mask.shape, np.uint8)
+        self._grown = same_size(self._grown, self._mask.shape, np.uint8)
         return cv2.dilate(self._mask, self._grow_kernel, dst=self._grown)
-
-    def _people_flow(self, grey: np.ndarray, prev_grey: np.ndarray, blobs: list[Blob]) -> np.ndarray:
-        """Backward DIS flow (current → previous frame) over the boxes around the people plus a margin,
-        overlapping boxes joined (the rest of the frame is left 0: it is never sampled). People far
-        apart cost two small boxes, not one as wide as the frame."""
-        h, w = grey.shape
-        m = _FLOW_MARGIN
-        boxes = [(max(0, int(b.contour[:, 0].min()) - m), max(0, int(b.contour[:, 1].min()) - m),
-                  min(w, int(b.contour[:, 0].max()) + m + 1), min(h, int(b.contour[:, 1].max()) + m + 1))
-                 for b in blobs]
-        flow = self._flow_work = _same_size(self._flow_work, (h, w, 2), np.float32)
-        flow.fill(0.0)
-        for u0, v0, u1, v1 in joined_boxes(boxes):
-            now, before = np.ascontiguousarray(grey[v0:v1, u0:u1]), np.ascontiguousarray(prev_grey[v0:v1, u0:u1])
-            # None: no initial flow (OpenCV's stubs demand an array, which DIS would take as one)
-            flow[v0:v1, u0:u1] = self._flow.calc(now, before, None)  # type: ignore[call-overload]
-        return flow
-
-    def _contactors(self, person: int, blob: PersonBlob, people: np.ndarray, dt: float) -> list[Contactor]:
-        """One person's contactors; ``dt`` ≤ 0 gives them no velocity (first sight, no interval).
-        Feet are the middles of the leg ends (:func:`interaction.webcam.silhouette_parts.feet`), not the
-        lowest outline points; a person cut apart from others gets no hands from the outline (its
-        torso, which tells an arm held out from the body, is partly the cut)."""
-        cfg = self._cfg
-        size = people.shape[::-1]
-        outline, named = outline_points(blob.blob.contour, cfg.contour_spacing_px * self._scale, size)
-        cut = blob.cut_left or blob.cut_right  # its torso, which places the hands, is not its own outline
-        keep = [part != "foot" and not (part == "hand" and cut) for part in named]
-        found_feet = feet(blob.blob.contour, size, blob.cut_left, blob.cut_right)
-        uv_work = np.concatenate([outline[keep].astype(np.float64), found_feet])
-        parts = [p for p, k in zip(named, keep, strict=True) if k] + ["foot"] * len(found_feet)
-        uv_px = np.rint(uv_work).astype(np.intp)
-        uv = self._to_input_px(uv_work)
-        if self._floor is not None:
-            back = flow_back(self._flow_px, people, uv_px, self._cfg.flow_window_px, self._scale, dt)
-            return self._floor.body(person, parts, uv, len(found_feet), self._to_input_px(blob.blob.contour), back, dt)
-        pos = self._cal.image_to_stage(uv)
-        vel = self._flow_velocity(uv_px, uv, pos, people, dt)
-        if vel is None:
-            vel = np.zeros_like(pos)
-        if cfg.contactor_radius_m > 0:
-            radius = np.full(len(parts), cfg.contactor_radius_m)
-        else:
-            radius = _RADIUS_PER_SPACING * cfg.contour_spacing_px * self._cal.metres_per_pixel(uv)
-        half_depth = self._cal.half_depth
-        p, v, r = pos.tolist(), vel.tolist(), radius.tolist()
-        return [
-            Contactor(person, part, (p[i][0], p[i][1], p[i][2]), (v[i][0], 0.0, v[i][2]), r[i], half_depth)
-            for i, part in enumerate(parts)
-        ]
-
-    def _flow_velocity(
-        self, uv_px: np.ndarray, uv: np.ndarray, pos: np.ndarray, people: np.ndarray, dt: float
-    ) -> np.ndarray | None:
-        """Stage velocities (N, 3) of points (work pixels ``uv_px`` as ints, input pixels ``uv``, stage
-        ``pos``) from the median optical flow over the person's pixels near each; None without flow."""
-        if self._flow_px is None or dt <= 0:
-            return None
-        back = median_flow(self._flow_px, people, uv_px, self._cfg.flow_window_px)
-        vel = (pos - self._cal.image_to_stage(uv + back / self._scale)) / dt
-        vel[:, 1] = 0.0
-        return vel
-
-    def _limb_contactors(
-        self, bgr: np.ndarray, ids: list[int], blobs: list[Blob], people: np.ndarray, t: float, dt: float,
-        born: frozenset[int],
-    ) -> list[Contactor]:
-        """Hands and feet from each person's newest body keypoints, moved on by their velocity from the
-        keypoints' frame to this one, where they lie on the silhouette. Their velocity is the optical
-        flow at the limb, or the keypoints' smoothed motion where there is no flow (a person's first
-        frames): the flow is the better of the two (docs/notes/webcam.md)."""
-        assert self._pose is not None
-        outlines = [self._to_input_px(b.contour.astype(np.float64)) for b in blobs]
-        self._pose.update(t, bgr, ids, outlines, self._cal.image_to_stage)
-        grow = 2 * self._cfg.morphology_px + 1  # the people a little grown, at work size (at 1768×994: 10 ms)
-        accept = cv2.dilate(people, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
-        out: list[Contactor] = []
-        for pid in sorted(ids):
-            limbs = self._pose.limbs(pid, t, accept, self._scale)
-            if not limbs:
-                continue
-            uv = np.array([limb.uv for limb in limbs])
-            uv_px = np.clip(np.rint((uv + 0.5) * self._scale - 0.5), 0, np.array(people.shape[::-1]) - 1).astype(np.intp)
-            if self._floor is not None:
-                back = flow_back(self._flow_px, people, uv_px, self._cfg.flow_window_px, self._scale, 0.0 if pid in born else dt)
-                out.extend(self._floor.limbs(pid, limbs, uv, back, dt))
-                continue
-            pos = self._cal.image_to_stage(uv)
-            vel = self._flow_velocity(uv_px, uv, pos, people, 0.0 if pid in born else dt)
-            if vel is None:
-                vxz = np.einsum("nij,nj->ni", self._cal.jacobian(uv), np.array([limb.velocity for limb in limbs]))
-                vel = np.column_stack([vxz[:, 0], np.zeros(len(vxz)), vxz[:, 1]])
-            r, hd = self._cfg.pose_radius_m, self._cal.half_depth
-            for limb, p, v in zip(limbs, pos.tolist(), vel.tolist(), strict=True):
-                out.append(Contactor(pid, limb.part, (p[0], p[1], p[2]), (v[0], 0.0, v[2]), r, hd))
-        return out
-
-
-def _same_size(array: np.ndarray | None, shape: tuple[int, ...], dtype: type) -> np.ndarray:
-    """``array`` when it has this shape (its contents are to be overwritten), else a new one that has."""
-    if array is None or array.shape != shape:
-        return np.empty(shape, dtype)
-    return array

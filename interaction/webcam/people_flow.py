@@ -6,9 +6,15 @@ All in work pixels; nothing here knows the stage.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-__all__ = ["joined_boxes", "median_flow"]
+from interaction.people import Blob
+
+__all__ = ["joined_boxes", "median_flow", "people_flow", "same_size"]
+
+_FLOW_MARGIN = 24  # work pixels of context around the people for the optical flow
 
 
 def joined_boxes(boxes: list[tuple[int, int, int, int]]) -> list[tuple[int, int, int, int]]:
@@ -49,3 +55,27 @@ def median_flow(flow: np.ndarray, mask: np.ndarray, uv: np.ndarray, window: int)
         vals.sort(axis=1)  # the masked values first, in order
         out[:, c] = 0.5 * (vals[rows, lo] + vals[rows, hi])
     return out
+
+
+def people_flow(dis: Any, grey: np.ndarray, prev_grey: np.ndarray, blobs: list[Blob], out: np.ndarray) -> np.ndarray:
+    """Backward DIS flow (current → previous frame; ``dis`` a ``cv2.DISOpticalFlow``) into ``out``
+    (h, w, 2) over the boxes around the people plus a margin, overlapping boxes joined (the rest is
+    left 0: it is never sampled). People far apart cost two small boxes, not one as wide as the frame."""
+    h, w = grey.shape
+    m = _FLOW_MARGIN
+    boxes = [(max(0, int(b.contour[:, 0].min()) - m), max(0, int(b.contour[:, 1].min()) - m),
+              min(w, int(b.contour[:, 0].max()) + m + 1), min(h, int(b.contour[:, 1].max()) + m + 1))
+             for b in blobs]
+    out.fill(0.0)
+    for u0, v0, u1, v1 in joined_boxes(boxes):
+        now, before = np.ascontiguousarray(grey[v0:v1, u0:u1]), np.ascontiguousarray(prev_grey[v0:v1, u0:u1])
+        # None: no initial flow (OpenCV's stubs demand an array, which DIS would take as one)
+        out[v0:v1, u0:u1] = dis.calc(now, before, None)
+    return out
+
+
+def same_size(array: np.ndarray | None, shape: tuple[int, ...], dtype: type) -> np.ndarray:
+    """``array`` when it has this shape (its contents are to be overwritten), else a new one that has."""
+    if array is None or array.shape != shape:
+        return np.empty(shape, dtype)
+    return array

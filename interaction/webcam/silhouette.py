@@ -5,8 +5,9 @@ each pixel's own noise (the spread of its values over those frames). Both come f
 sorted per pixel, which is built up frame by frame while learning (each frame is sorted into place,
 one min/max pass), so the frame that ends learning costs no more than any other. A frame is compared against it after undoing global light change (a gain
 per colour channel, measured where no one stood in the last frame). A pixel is foreground when its
-colour is far from the background's, unless it is merely a shadow: darker by a bounded ratio
-with the background's colour. The background follows the room slowly only while no one is in view.
+colour is far from the background's, unless it is merely a shadow or a local light: darker or
+brighter by a bounded ratio with the background's colour. The background follows the room slowly
+wherever no person stands (every frame), and everywhere once no one has been in view for a while.
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ __all__ = ["BackgroundModel"]
 _GAIN_STRIDE = 6  # measure the light gain on every 6th pixel in each direction
 _MIN_BG_LEVEL = 12.0  # background channel values below this tell nothing about the gain
 _IQR_PER_SIGMA = 1.349  # a normal distribution's interquartile range, in σ
+_MAX_THRESHOLD_SHARE = 2.0  # a pixel's noise raises its threshold to at most this many diff_threshold,
+_MAX_THRESHOLD_NOISE = 3.0  # ... or this many times the median pixel's (a camera's own noise)
 _CHANNEL_MEAN = np.full((1, 3), 1.0 / 3.0, dtype=np.float32)
 _ONES = np.ones((1, 3), dtype=np.float32)  # sums a pixel's three channels
 
@@ -43,6 +46,7 @@ class BackgroundModel:
         self._arrays: _ForegroundArrays | None = None  # the per-frame work arrays, made by the first frame
         self._gain = (1.0, 1.0, 1.0)
         self._empty_run = 0
+        self._outside: np.ndarray | None = None  # where no person stands (the selective refresh's mask)
 
     # ------------------------------------------------------------ state
 
@@ -93,7 +97,11 @@ class BackgroundModel:
         iqr = cv2.subtract(self._sorted[k - 1 - q], self._sorted[q]).astype(np.float32)
         spread = np.sqrt(cv2.transform(cv2.multiply(iqr, iqr), _CHANNEL_MEAN)) / np.float32(_IQR_PER_SIGMA)
         sigma = cv2.blur(spread.astype(np.float32), (5, 5))
-        thr = np.maximum(np.float32(self._cfg.diff_threshold), np.float32(self._cfg.noise_sigmas) * sigma)
+        # capped: where someone moved while learning (a person in view at start) they stay detectable
+        base = np.float32(self._cfg.diff_threshold)
+        noise = np.float32(self._cfg.noise_sigmas) * sigma
+        cap = np.float32(max(float(_MAX_THRESHOLD_SHARE * base), _MAX_THRESHOLD_NOISE * float(np.median(noise))))
+        thr = np.clip(noise, base, cap)
         self._bg = bg
         self._bg_sq = bg * bg
         self._thr2 = (thr * thr).astype(np.float32)
@@ -134,25 +142,53 @@ class BackgroundModel:
         cd2 = np.subtract(dd, np.multiply(db, ratio_minus_1, out=a.work), out=dd)  # squared colour distortion |I − α B|²
         alpha = np.add(ratio_minus_1, np.float32(1.0), out=a.alpha)
         tol = np.multiply(np.float32(cfg.shadow_colour_tolerance), alpha, out=a.work)
-        # shadow: (α >= min ratio) & (α <= 1) & (cd2 <= tol² |B|² + ¼ thr²)
+        # shadow or local light: (min ratio <= α <= highlight max) & (cd2 <= tol² |B|² + ¼ thr²)
         bound = np.add(np.multiply(np.multiply(tol, tol, out=tol), bb, out=tol), self._thr2_quarter, out=tol)
         shadow = np.less_equal(cd2, bound, out=a.shadow)
         shadow &= np.greater_equal(alpha, cfg.shadow_min_ratio, out=a.test)
-        shadow &= np.less_equal(alpha, 1.0, out=a.test)
+        shadow &= np.less_equal(alpha, cfg.highlight_max_ratio, out=a.test)
         fg &= np.invert(shadow, out=shadow)
         mask = np.multiply(fg.view(np.uint8), np.uint8(255), out=a.mask)
         opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._kernel, dst=a.opened)
         closed = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, self._kernel, dst=a.mask)
         return cv2.morphologyEx(closed, cv2.MORPH_CLOSE, self._bridge, dst=a.opened)
 
-    def refresh(self, bgr: np.ndarray, someone_in_view: bool) -> None:
-        """Blend the frame into the background once no one has been in view for a while."""
-        if self._bg is None:
+    def refresh(self, bgr: np.ndarray, people: np.ndarray | None) -> None:
+        """Blend the frame into the background: at ``adapt_rate`` where no person stands (``people``,
+        uint8 255 = a person, grown by the caller; None = no one), and at ``refresh_rate`` everywhere once
+        no one has been in view for ``refresh_after_empty_frames`` frames."""
+        if self._bg is None or self._bg_sq is None:
             return
-        self._empty_run = 0 if someone_in_view else self._empty_run + 1
-        if self._empty_run > self._cfg.refresh_after_empty_frames and self._cfg.refresh_rate > 0:
-            cv2.accumulateWeighted(bgr, self._bg, self._cfg.refresh_rate)
-            cv2.multiply(self._bg, self._bg, dst=self._bg_sq)
+        cfg = self._cfg
+        self._empty_run = 0 if people is not None else self._empty_run + 1
+        if self._empty_run > cfg.refresh_after_empty_frames and cfg.refresh_rate > 0:
+            cv2.accumulateWeighted(bgr, self._bg, cfg.refresh_rate)
+        elif cfg.adapt_rate > 0 and people is None:
+            cv2.accumulateWeighted(bgr, self._bg, cfg.adapt_rate)
+        elif cfg.adapt_rate > 0 and people is not None:
+            if self._outside is None or self._outside.shape != people.shape:
+                self._outside = np.empty_like(people)
+            cv2.accumulateWeighted(bgr, self._bg, cfg.adapt_rate, mask=cv2.bitwise_not(people, dst=self._outside))
+        else:
+            return
+        cv2.multiply(self._bg, self._bg, dst=self._bg_sq)
+
+    def grey(self) -> np.ndarray | None:
+        """The learned background in grey levels (uint8, a new array), or None while learning."""
+        bg = self.background
+        return None if bg is None else cv2.cvtColor(bg, cv2.COLOR_BGR2GRAY)
+
+    def absorb(self, bgr: np.ndarray, contour: np.ndarray) -> None:
+        """The frame taken as the background inside an outline (M, 2) (a ghost, a changed light)."""
+        if self._bg is None or self._bg_sq is None:
+            return
+        x0, y0 = contour.min(axis=0)
+        x1, y1 = contour.max(axis=0) + 1
+        inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.drawContours(inside, [(contour - np.array([x0, y0])).reshape(-1, 1, 2).astype(np.int32)], -1, 1, cv2.FILLED)
+        box = self._bg[y0:y1, x0:x1]
+        np.copyto(box, bgr[y0:y1, x0:x1], where=inside[:, :, None] > 0, casting="unsafe")
+        np.multiply(box, box, out=self._bg_sq[y0:y1, x0:x1])
 
     def _measure_gain(self, img: np.ndarray, ignore: np.ndarray | None) -> tuple[float, float, float]:
         assert self._bg is not None

@@ -12,7 +12,7 @@ from collections.abc import Callable
 from typing import Any, TextIO
 
 from jostle import __version__
-from jostle.cli import bench, calibrate, keyframes, ragdoll, run, service, synth, terrain, tools
+from jostle.cli import bench, calibrate, keyframes, observe, ragdoll, run, service, synth, terrain, tools
 
 DESCRIPTION = """\
 jostle: people in front of sensors push, hit and shove on-screen characters, and the characters
@@ -29,6 +29,7 @@ examples:
   jostle record configs/webcam.toml --out session.mcap       record live sensors
   jostle replay session.mcap --config configs/webcam.toml    run a recorded session again
   jostle synth performer --clip walk --out demo.mcap         make a recording of a virtual person
+  jostle observe street.mp4 --no-pose --json                 people found in a video, before calibrating
   jostle doctor                                              check OpenGL, cameras, serial, DepthAI
   jostle service install configs/webcam.toml --user          start it at boot under systemd (kiosk)
 Run 'jostle COMMAND --help' for each command's options.
@@ -45,6 +46,7 @@ COMMANDS: tuple[Callable[[Any], None], ...] = (
     synth.add,
     keyframes.add,
     calibrate.add,
+    observe.add,  # jostle observe (people in a video, uncalibrated)
     tools.add,
     bench.add,
     service.add,
