@@ -49,7 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--surface", action="append", default=[], metavar="NAME",
                         help="only this surface (repeatable): recording, config, cli, keyframes, character_spec, "
                              "calibration, pose_file, terrain, depth_calibration, bvh, gltf, service, health, pads")
-    parser.add_argument("--timeout", type=float, default=30.0, metavar="S", help="seconds before a case is a hang")
+    parser.add_argument("--timeout", type=float, default=20.0, metavar="S", help="seconds before a case is a hang")
     parser.add_argument("--mem-cap-mb", type=int, default=4096, metavar="MB",
                         help="RLIMIT_AS of each child (address space; the RSS target is 512 MB)")
     parser.add_argument("--keep", type=Path, default=None, metavar="DIR", help="build the inputs in DIR and keep them")

@@ -269,8 +269,11 @@ def gltf_cases(ws: Workspace, sample: bool) -> Pairs:
     return cases
 
 
-def _left_empty(folder: Path) -> Callable[[], str | None]:
-    def check() -> str | None:
+def _left_empty(folder: Path) -> Callable[[int | None], str | None]:
+    """A check: an import that failed left no file in its ``--into`` folder (it was a transaction)."""
+    def check(exit_code: int | None) -> str | None:
+        if exit_code == 0:
+            return None
         files = [p for p in folder.rglob("*") if p.is_file()] if folder.exists() else []
         return f"a refused import left {len(files)} file(s) in {folder}" if files else None
     return check

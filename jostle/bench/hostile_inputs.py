@@ -59,7 +59,8 @@ def recording_cases(ws: Workspace, sample: bool) -> list[tuple[Case, bool]]:
     def damaged(name: str, blob: bytes, ranges: list[tuple[int, int]], in_sample: bool = False) -> None:
         path = d / f"{name}.mcap"
         path.write_bytes(blob)
-        cases.append(_replay_case(ws, name, path, "warning", intact_frames(spans, ranges), in_sample))
+        intact = intact_frames(spans, ranges)
+        cases.append(_replay_case(ws, name, path, "warning" if intact else "line", intact, in_sample))
 
     c0, c1, c3 = spans[0], spans[1], spans[3]
     zero_at = c1.start + 64

@@ -32,10 +32,10 @@ def _minimal_config(ws: Workspace, path: Path) -> Path:
     return path
 
 
-def _unit_sound(unit_dir: Path) -> Callable[[], str | None]:
+def _unit_sound(unit_dir: Path) -> Callable[[int | None], str | None]:
     """A check: no written unit has an injected line, and ``systemd-analyze verify`` finds no fatal
     error in any (skipped where systemd-analyze is missing)."""
-    def check() -> str | None:
+    def check(exit_code: int | None) -> str | None:
         for unit in sorted(unit_dir.glob("*.service")):
             text = unit.read_text(errors="replace")
             if any(MARK in ln and not ln.startswith(("ExecStart=", "WorkingDirectory=", "Description=", "#"))
@@ -99,8 +99,8 @@ def health_cases(ws: Workspace, sample: bool) -> Pairs:
     return cases
 
 
-def _still(intact: Callable[[Path], str | None], path: Path) -> Callable[[], str | None]:
-    return lambda: intact(path)
+def _still(intact: Callable[[Path], str | None], path: Path) -> Callable[[int | None], str | None]:
+    return lambda exit_code: intact(path)
 
 
 def pads_cases(ws: Workspace, sample: bool) -> Pairs:

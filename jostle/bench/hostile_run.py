@@ -35,7 +35,8 @@ class Case:
     """One bad input: where it enters (``surface``), its name, the ``jostle`` arguments that feed it,
     the one line expected, the input's size in bytes, and optional extras: ``intact`` frames of a
     damaged recording (``kept`` read from ``summary``), bytes fed to a serial pty (the config's
-    ``{pty}`` filled in), and ``checks`` run after the process (each returns a problem or None)."""
+    ``{pty}`` filled in), and ``checks`` run after the process on its exit code (each returns a
+    problem or None)."""
 
     surface: str
     name: str
@@ -46,7 +47,7 @@ class Case:
     summary: Path | None = None
     pty_config: tuple[Path, str] | None = None
     pty_feed: bytes = b""
-    checks: tuple[Callable[[], str | None], ...] = ()
+    checks: tuple[Callable[[int | None], str | None], ...] = ()
     max_line_chars: int = 2000
 
     @property
@@ -131,14 +132,17 @@ def run_case(case: Case, *, timeout_s: float, mem_cap_mb: int, cwd: Path) -> Out
                for n, s in (("out", proc.stdout), ("err", proc.stderr))]
     for r in readers:
         r.start()
-    while proc.poll() is None:
-        peak_kb = max(peak_kb, _peak_kb(proc.pid))
-        if time.monotonic() - start > timeout_s:
-            hung = True
+    try:
+        while proc.poll() is None:
+            peak_kb = max(peak_kb, _peak_kb(proc.pid))
+            if time.monotonic() - start > timeout_s:
+                hung = True
+                break
+            time.sleep(0.02)
+    finally:  # a hang, or the bench itself interrupted: the child's whole process group goes
+        if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
-            break
-        time.sleep(0.02)
     seconds = time.monotonic() - start
     for r in readers:
         r.join(timeout=5)
@@ -160,7 +164,7 @@ def run_case(case: Case, *, timeout_s: float, mem_cap_mb: int, cwd: Path) -> Out
     if len(line) > case.max_line_chars:
         outcome.problems.append(f"its line is {len(line)} characters long")
     for check in case.checks:
-        problem = check()
+        problem = check(outcome.exit_code)
         if problem:
             outcome.problems.append(problem)
     return outcome

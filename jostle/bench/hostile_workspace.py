@@ -42,6 +42,8 @@ class Workspace:
     def fifo(self, name: str) -> Path:
         path = self.root / "in" / name
         path.parent.mkdir(parents=True, exist_ok=True)
+        if path.is_symlink() or (path.exists() and not stat.S_ISFIFO(path.lstat().st_mode)):
+            path.unlink()  # a run replaced it: make it again
         if not path.exists():
             os.mkfifo(path)
         return path
@@ -50,6 +52,8 @@ class Workspace:
         """A character device 1:minor (5 = zero, 7 = full) at ``in/name``, or None if mknod fails."""
         path = self.root / "in" / name
         path.parent.mkdir(parents=True, exist_ok=True)
+        if path.is_symlink() or (path.exists() and not stat.S_ISCHR(path.lstat().st_mode)):
+            path.unlink()
         if not path.exists():
             try:
                 os.mknod(path, stat.S_IFCHR | 0o666, os.makedev(1, minor))

@@ -23,20 +23,17 @@ from jostle.bench.hostile_workspace import Workspace
 TIMEOUT_S = 10.0  # every sample case that works ends in under 4 s here; a hang is killed at this
 MEM_CAP_MB = 2048  # address space: a normal run maps ~1.4 GB; the RSS target is 512 MB
 
-SAMPLE = (
+SAMPLE = (  # one case per kind of hostility per surface; the bench runs every variant
     "recording-sound", "recording-zeroed_block_chunk1", "recording-corrupt_chunk0", "recording-truncated_55pct",
     "recording-zstd_bomb_info", "recording-concatenated", "recording-jpeg_30000x30000",
     "recording-time_jump_1e19ns",
     "config-fifo", "config-dev_zero_twin", "config-symlink_loop", "config-nested_3000", "config-dotted_20000",
     "config-sensors_10000", "config-tail_nan", "config-seed_minus1", "config-string_10mb",
-    "cli-duration_nan", "cli-duration_inf", "cli-duration_minus1",
-    "keyframes-fifo", "keyframes-nested_3000", "character_spec-dev_zero_twin", "character_spec-mass_nan",
-    "calibration-fifo", "calibration-homography_zero", "pose_file-fifo", "pose_file-nan",
-    "terrain-dev_zero_twin", "depth_calibration-floor_zero", "depth_calibration-translation_1e300",
-    "depth_calibration-image_size_other", "bvh-fifo", "bvh-nested_5000", "bvh-frames_1e9",
-    "gltf-accessor_type_mat4", "gltf-channel_node_999", "gltf-uri_escape", "gltf-uri_fifo",
-    "service-path_space", "service-path_newline", "service-display_injection", "service-run_as_injection",
-    "service-name_bang", "health-dev_full_twin", "health-fifo", "pads-underscore_1_000", "pads-nan",
+    "cli-duration_nan", "keyframes-fifo", "character_spec-dev_zero_twin", "calibration-homography_zero",
+    "pose_file-fifo", "terrain-dev_zero_twin", "depth_calibration-floor_zero", "depth_calibration-translation_1e300",
+    "bvh-fifo", "bvh-nested_5000", "gltf-accessor_type_mat4", "gltf-uri_escape", "gltf-uri_fifo",
+    "service-path_space", "service-display_injection", "service-name_bang", "health-dev_full_twin",
+    "pads-underscore_1_000",
 )
 
 
@@ -82,6 +79,17 @@ def test_targets(ran: dict[str, tuple[Case, Outcome]]) -> None:
     assert (fig["tracebacks"], fig["hangs"], fig["internal_errors"]) == (0, 0, 0), fig["failures"]
     assert fig["peak_rss_mb_max"] < 512
     assert fig["recovered_share"] >= 0.99
+
+
+@pytest.mark.slow
+def test_every_case_meets_the_targets(tmp_path: Path) -> None:
+    """The whole generated set (what ``jostle bench hostile`` runs): every case passes."""
+    ws = Workspace(tmp_path)
+    cases = build_cases(ws, sample=False)
+    outcomes = [run_case(c, timeout_s=20.0, mem_cap_mb=MEM_CAP_MB, cwd=ws.root) for c in cases]
+    fig = figures(cases, outcomes, ws.skipped)
+    assert not fig["failures"], "\n".join(f"{k}: {v}" for k, v in fig["failures"].items())
+    assert fig["recovered_share"] >= 0.99 and fig["peak_rss_mb_max"] < 512
 
 
 def test_intact_frames_are_counted_from_the_chunks(tmp_path: Path) -> None:
