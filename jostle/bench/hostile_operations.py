@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import json
 import shutil
+import socket
+import struct
 import subprocess
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -97,6 +100,44 @@ def health_cases(ws: Workspace, sample: bool) -> Pairs:
         argv = ws.run_argv(cfg, f"health-{name}")
         cases.append((Case("health", name, argv, "line", checks=(_still(intact, path),)), True))
     return cases
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port: int = s.getsockname()[1]
+        return port
+
+
+def _rude_clients(port: int, clients: int = 20) -> None:
+    """Wait (≤ 8 s) for the endpoint on 127.0.0.1:port, then connect ``clients`` times: half reset at
+    once (SO_LINGER 0), half send half a request and close before reading."""
+    deadline = time.monotonic() + 8.0
+    while time.monotonic() < deadline:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=0.5).close()
+            break
+        except OSError:
+            time.sleep(0.1)
+    for i in range(clients):
+        try:
+            c = socket.create_connection(("127.0.0.1", port), timeout=0.5)
+            if i % 2:
+                c.sendall(b"GET /health HTTP/1.1\r\nHost: 127.0.0.1\r\n")
+            c.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+            c.close()
+        except OSError:
+            pass
+
+
+def endpoint_cases(ws: Workspace, sample: bool) -> Pairs:
+    """The health endpoint (127.0.0.1 only) with clients that reset or leave before reading."""
+    port = _free_port()
+    demo = (ws.configs / "demo.toml").read_text()
+    cfg = ws.config("health-endpoint", demo + f"\n[health]\nhttp_port = {port}\ninterval_s = 0.2\n")
+    argv = ws.run_argv(cfg, "health-rude_clients")[:-4] + ("--duration", "3", "--speed", "realtime",
+                                                           "--out", str(ws.out("health-rude_clients")))
+    return [(Case("health", "rude_clients", argv, "ok", during=lambda: _rude_clients(port)), True)]
 
 
 def _still(intact: Callable[[Path], str | None], path: Path) -> Callable[[int | None], str | None]:

@@ -35,7 +35,8 @@ class Case:
     """One bad input: where it enters (``surface``), its name, the ``jostle`` arguments that feed it,
     the one line expected, the input's size in bytes, and optional extras: ``intact`` frames of a
     damaged recording (``kept`` read from ``summary``), bytes fed to a serial pty (the config's
-    ``{pty}`` filled in), and ``checks`` run after the process on its exit code (each returns a
+    ``{pty}`` filled in), what to do to the process while it runs (``during``, in a thread: hostile
+    network clients), and ``checks`` run after the process on its exit code (each returns a
     problem or None)."""
 
     surface: str
@@ -48,6 +49,7 @@ class Case:
     pty_config: tuple[Path, str] | None = None
     pty_feed: bytes = b""
     checks: tuple[Callable[[int | None], str | None], ...] = ()
+    during: Callable[[], None] | None = None
     max_line_chars: int = 2000
 
     @property
@@ -119,6 +121,8 @@ def run_case(case: Case, *, timeout_s: float, mem_cap_mb: int, cwd: Path) -> Out
     proc = subprocess.Popen(jostle_command() + argv, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, preexec_fn=limit)
     feeder = None
+    if case.during is not None:
+        threading.Thread(target=case.during, daemon=True).start()
     if master >= 0:
         feeder = threading.Thread(target=_feed, args=(master, case.pty_feed, stop), daemon=True)
         feeder.start()
@@ -178,7 +182,10 @@ def _classify(err: str, code: int | None, hung: bool) -> tuple[str, str]:
     if hung:
         return "hang", first
     if "Traceback" in err:
-        return "traceback", first
+        lines = err.splitlines()
+        after = lines[max(i for i, ln in enumerate(lines) if "Traceback" in ln):]
+        raised = [ln for ln in after[1:] if ln and not ln.startswith(" ")]
+        return "traceback", raised[0] if raised else first
     if (code == 1 and internal) or (code is not None and code < 0):
         return "internal_error", first or f"killed by signal {-code if code else 0}"
     if code == 2 and len(errors) == 1:

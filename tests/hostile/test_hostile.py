@@ -20,7 +20,7 @@ from jostle.bench.hostile_recordings import chunk_spans, drawn_frames, intact_fr
 from jostle.bench.hostile_run import Case, Outcome, passes, run_case
 from jostle.bench.hostile_workspace import Workspace
 
-TIMEOUT_S = 10.0  # every sample case that works ends in under 4 s here; a hang is killed at this
+TIMEOUT_S = 15.0  # a sound case ends in 2–6 s here on a loaded machine; a hang is killed at this
 MEM_CAP_MB = 2048  # address space: a normal run maps ~1.4 GB; the RSS target is 512 MB
 
 SAMPLE = (  # one case per kind of hostility per surface; the bench runs every variant
@@ -33,7 +33,7 @@ SAMPLE = (  # one case per kind of hostility per surface; the bench runs every v
     "pose_file-fifo", "terrain-dev_zero_twin", "depth_calibration-floor_zero", "depth_calibration-translation_1e300",
     "bvh-fifo", "bvh-nested_5000", "gltf-accessor_type_mat4", "gltf-uri_escape", "gltf-uri_fifo",
     "service-path_space", "service-display_injection", "service-name_bang", "health-dev_full_twin",
-    "pads-underscore_1_000",
+    "health-rude_clients", "pads-underscore_1_000",
 )
 
 
