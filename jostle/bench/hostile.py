@@ -27,6 +27,9 @@ BUILDERS: tuple[Callable[[Workspace, bool], list[tuple[Case, bool]]], ...] = (
     recording_cases, config_cases, cli_cases, referenced_cases, depth_calibration_cases, bvh_cases, gltf_cases,
     service_cases, health_cases, endpoint_cases, pads_cases)
 
+SURFACES = ("recording", "config", "cli", "keyframes", "character_spec", "calibration", "pose_file", "terrain",
+            "depth_calibration", "bvh", "gltf", "service", "health", "pads")
+
 EPILOG = """\
 Every case runs as its own `jostle …` process under a memory cap (RLIMIT_AS) and a timeout, in a
 temporary folder; nothing outside it is written and no real device node is opened (/dev/zero and
@@ -37,7 +40,7 @@ bad, misses the one line it should give, keeps < 99 % of a damaged recording's i
 peaks at 512 MB or more on an input under 10 MB. Progress goes to stderr, one line per case.
 
 examples:
-  jostle bench hostile --json                      every case (a few minutes)
+  jostle bench hostile --json                      every case (~20 min while many hang; minutes once fixed)
   jostle bench hostile --sample --surface gltf     one case per kind, glTF imports only
   jostle bench hostile --keep out/hostile --json   keep the inputs to replay a case by hand
 """
@@ -47,8 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.epilog = EPILOG
     parser.add_argument("--sample", action="store_true", help="one case per kind per surface (what the tests run)")
     parser.add_argument("--surface", action="append", default=[], metavar="NAME",
-                        help="only this surface (repeatable): recording, config, cli, keyframes, character_spec, "
-                             "calibration, pose_file, terrain, depth_calibration, bvh, gltf, service, health, pads")
+                        help="only this surface (repeatable): " + ", ".join(SURFACES))
     parser.add_argument("--timeout", type=float, default=20.0, metavar="S", help="seconds before a case is a hang")
     parser.add_argument("--mem-cap-mb", type=int, default=4096, metavar="MB",
                         help="RLIMIT_AS of each child (address space; the RSS target is 512 MB)")
@@ -100,6 +102,9 @@ def measure(cases: list[Case], ws: Workspace, *, timeout_s: float, mem_cap_mb: i
 def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.timeout <= 0 or args.mem_cap_mb < 256:
         raise ValueError(f"--timeout must be > 0 and --mem-cap-mb ≥ 256, got {args.timeout} and {args.mem_cap_mb}")
+    unknown = [s for s in args.surface if s not in SURFACES]
+    if unknown:
+        raise ValueError(f"--surface: unknown {unknown[0]!r} (known: {', '.join(SURFACES)})")
     with tempfile.TemporaryDirectory(prefix="jostle-hostile-") as tmp:
         root = args.keep if args.keep is not None else Path(tmp)
         root.mkdir(parents=True, exist_ok=True)

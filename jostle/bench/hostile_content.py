@@ -70,6 +70,7 @@ def referenced_cases(ws: Workspace, sample: bool) -> Pairs:
                 pose.unlink()
                 special = ws.fifo(f"pose-{kind}") if kind == "fifo" else ws.device_twin(f"pose-{kind}", 5)
                 if special is None:
+                    ws.skipped.append(f"pose_file-{kind} (mknod refused)")
                     continue
                 pose.symlink_to(special)
         cfg = ws.demo_with(f"pose-{kind}", 'keyframes = "keyframes/humanoid/keyframes.toml"',

@@ -113,13 +113,12 @@ def run_case(case: Case, *, timeout_s: float, mem_cap_mb: int, cwd: Path) -> Out
         path, text = case.pty_config
         path.write_text(text.replace("{pty}", os.ttyname(slave)))
 
-    def limit() -> None:
+    def limit() -> None:  # in the child, between fork and exec: one system call, no locks
         resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
-        os.setsid()
 
     start = time.monotonic()
     proc = subprocess.Popen(jostle_command() + argv, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, preexec_fn=limit)
+                            stderr=subprocess.PIPE, preexec_fn=limit, start_new_session=True)
     feeder = None
     if case.during is not None:
         threading.Thread(target=case.during, daemon=True).start()

@@ -37,10 +37,14 @@ SAMPLE = (  # one case per kind of hostility per surface; the bench runs every v
 )
 
 
+SKIPPED: list[str] = []  # cases the workspace could not make (a device twin where mknod is refused)
+
+
 @pytest.fixture(scope="module")
 def ran(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Case, Outcome]]:
     ws = Workspace(tmp_path_factory.mktemp("hostile"))
     cases = [c for c in build_cases(ws, sample=True) if c.id in SAMPLE]
+    SKIPPED[:] = ws.skipped
     with ThreadPoolExecutor(max_workers=2) as pool:
         outcomes = list(pool.map(lambda c: run_case(c, timeout_s=TIMEOUT_S, mem_cap_mb=MEM_CAP_MB, cwd=ws.root),
                                  cases))
@@ -50,7 +54,10 @@ def ran(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Case, Outco
 @pytest.mark.parametrize("case_id", SAMPLE)
 def test_case_gives_its_one_line(ran: dict[str, tuple[Case, Outcome]], case_id: str) -> None:
     if case_id not in ran:
-        pytest.fail(f"{case_id} was not built (the sample lost it, or mknod was refused)")
+        why = [s for s in SKIPPED if s.startswith(case_id + " ")]
+        if why:
+            pytest.skip(f"not made here: {why[0]}")
+        pytest.fail(f"{case_id} was not built (the sample lost it)")
     case, outcome = ran[case_id]
     wrong = passes(case, outcome)
     assert not wrong, f"{case_id}: " + "; ".join(wrong)
@@ -67,7 +74,7 @@ def test_the_sound_recording_replays_whole(ran: dict[str, tuple[Case, Outcome]])
 def test_figures_total_the_surfaces(ran: dict[str, tuple[Case, Outcome]]) -> None:
     cases = [c for c, _ in ran.values()]
     fig = figures(cases, [o for _, o in ran.values()], [])
-    assert fig["inputs"] == len(SAMPLE)
+    assert fig["inputs"] + len(SKIPPED) == len(SAMPLE)
     assert sum(s["inputs"] for s in fig["surfaces"].values()) == fig["inputs"]
     kinds = ("clean_errors", "warnings", "tracebacks", "hangs", "internal_errors", "accepted", "other")
     assert sum(fig[k] for k in kinds) == fig["inputs"]
