@@ -118,3 +118,22 @@ def test_device_twins_are_not_the_real_devices(tmp_path: Path) -> None:
     assert stat.S_ISCHR(twin.lstat().st_mode) and twin.parent.parent == tmp_path
     with twin.open("rb") as f:
         assert f.read(16) == bytes(16)  # it behaves as /dev/zero, and lives in tmp_path
+
+
+@pytest.mark.parametrize(("err", "code", "hung", "kind"), [
+    ("jostle: error: a.toml: seed: expected 0 … 2^32 − 1, got -1\n", 2, False, "clean_error"),
+    ("jostle: warning: a.mcap: recording damaged at byte 9\n", 0, False, "warning"),
+    ("Traceback (most recent call last):\n  File x\nConnectionResetError: [Errno 104]\n", 0, False, "traceback"),
+    ("jostle: internal error: KeyError: 'MAT4' (run with --debug for the traceback)\n", 1, False, "internal_error"),
+    ("", -9, False, "internal_error"),
+    ("jostle: running a.toml …\n", None, True, "hang"),
+    ("jostle: error: one\njostle: error: two\n", 2, False, "other"),
+    ("jostle: running a.toml …\n", 0, False, "ok"),
+])
+def test_outcomes_are_classified(err: str, code: int | None, hung: bool, kind: str) -> None:
+    from jostle.bench.hostile_run import _classify
+
+    got, line = _classify(err, code, hung)
+    assert got == kind
+    if kind == "traceback":
+        assert line.startswith("ConnectionResetError")
