@@ -109,25 +109,35 @@ def _free_port() -> int:
         return port
 
 
-def _rude_clients(port: int, clients: int = 20) -> None:
+class _RudeClients:
     """Wait (≤ 8 s) for the endpoint on 127.0.0.1:port, then connect ``clients`` times: half reset at
-    once (SO_LINGER 0), half send half a request and close before reading."""
-    deadline = time.monotonic() + 8.0
-    while time.monotonic() < deadline:
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=0.5).close()
-            break
-        except OSError:
-            time.sleep(0.1)
-    for i in range(clients):
-        try:
-            c = socket.create_connection(("127.0.0.1", port), timeout=0.5)
-            if i % 2:
-                c.sendall(b"GET /health HTTP/1.1\r\nHost: 127.0.0.1\r\n")
-            c.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
-            c.close()
-        except OSError:
-            pass
+    once (SO_LINGER 0), half send half a request and close before reading. ``connected`` counts the
+    connections made; the check fails when there were none (nothing was tested)."""
+
+    def __init__(self, port: int, clients: int = 20) -> None:
+        self.port, self.clients, self.connected = port, clients, 0
+
+    def __call__(self) -> None:
+        deadline = time.monotonic() + 8.0
+        while time.monotonic() < deadline:
+            try:
+                socket.create_connection(("127.0.0.1", self.port), timeout=0.5).close()
+                break
+            except OSError:
+                time.sleep(0.1)
+        for i in range(self.clients):
+            try:
+                c = socket.create_connection(("127.0.0.1", self.port), timeout=0.5)
+                self.connected += 1
+                if i % 2:
+                    c.sendall(b"GET /health HTTP/1.1\r\nHost: 127.0.0.1\r\n")
+                c.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+                c.close()
+            except OSError:
+                pass
+
+    def check(self, exit_code: int | None) -> str | None:
+        return None if self.connected else f"the endpoint on 127.0.0.1:{self.port} never accepted a client"
 
 
 def endpoint_cases(ws: Workspace, sample: bool) -> Pairs:
@@ -137,7 +147,8 @@ def endpoint_cases(ws: Workspace, sample: bool) -> Pairs:
     cfg = ws.config("health-endpoint", demo + f"\n[health]\nhttp_port = {port}\ninterval_s = 0.2\n")
     argv = ws.run_argv(cfg, "health-rude_clients")[:-4] + ("--duration", "3", "--speed", "realtime",
                                                            "--out", str(ws.out("health-rude_clients")))
-    return [(Case("health", "rude_clients", argv, "ok", during=lambda: _rude_clients(port)), True)]
+    rude = _RudeClients(port)
+    return [(Case("health", "rude_clients", argv, "ok", during=rude, checks=(rude.check,)), True)]
 
 
 def _still(intact: Callable[[Path], str | None], path: Path) -> Callable[[int | None], str | None]:
@@ -158,8 +169,21 @@ def pads_cases(ws: Workspace, sample: bool) -> Pairs:
                 "positions = [-2.0,0.0,1.0, -0.7,0.0,1.0, 0.7,0.0,1.0, 2.0,0.0,1.0]\n"
                 "directions = [0.0,1.0,0.0, 0.0,1.0,0.0, 0.0,1.0,0.0, 0.0,1.0,0.0]\n"
                 '[render]\nkeyframes = "keyframes/humanoid/keyframes.toml"\n')
-        argv = ("run", str(cfg), "--headless", "--no-video", "--quiet", "--duration", "1.5",
-                "--out", str(ws.out(f"pads-{name}")))
-        cases.append((Case("pads", name, argv, "line", pty_config=(cfg, text), pty_feed=good * 20 + line + good * 20),
-                      i in (0, 2, 5)))
+        out = ws.out(f"pads-{name}")
+        argv = ("run", str(cfg), "--headless", "--no-video", "--quiet", "--duration", "1.5", "--out", str(out))
+        cases.append((Case("pads", name, argv, "line", pty_config=(cfg, text), pty_feed=good * 20 + line + good * 20,
+                           checks=(_frames_read(out / "summary.json"),)), i in (0, 2, 5)))
     return cases
+
+
+def _frames_read(summary: Path) -> Callable[[int | None], str | None]:
+    """A check: a run that went through read pad frames from the pty (else nothing was tested)."""
+    def check(exit_code: int | None) -> str | None:
+        if exit_code != 0:
+            return None
+        try:
+            frames = json.loads(summary.read_text()).get("sensor_frames", 0)
+        except (OSError, ValueError):
+            return f"{summary}: missing after a run that exited 0"
+        return None if frames else "no pad frame was read from the pty"
+    return check
