@@ -18,16 +18,16 @@ from pathlib import Path
 from typing import Any
 
 from jostle.bench.hostile_content import bvh_cases, depth_calibration_cases, gltf_cases, referenced_cases
-from jostle.bench.hostile_inputs import cli_cases, config_cases, recording_cases
+from jostle.bench.hostile_inputs import cli_cases, config_cases, observer_cases, recording_cases
 from jostle.bench.hostile_operations import endpoint_cases, health_cases, pads_cases, service_cases
 from jostle.bench.hostile_run import Case, Outcome, passes, run_case
 from jostle.bench.hostile_workspace import Workspace
 
 BUILDERS: tuple[Callable[[Workspace, bool], list[tuple[Case, bool]]], ...] = (
-    recording_cases, config_cases, cli_cases, referenced_cases, depth_calibration_cases, bvh_cases, gltf_cases,
-    service_cases, health_cases, endpoint_cases, pads_cases)
+    recording_cases, observer_cases, config_cases, cli_cases, referenced_cases, depth_calibration_cases, bvh_cases,
+    gltf_cases, service_cases, health_cases, endpoint_cases, pads_cases)
 
-SURFACES = ("recording", "config", "cli", "keyframes", "character_spec", "calibration", "pose_file", "terrain",
+SURFACES = ("recording", "observers", "config", "cli", "keyframes", "character_spec", "calibration", "pose_file", "terrain",
             "depth_calibration", "bvh", "gltf", "service", "health", "pads")
 
 EPILOG = """\

@@ -25,6 +25,7 @@ from jostle.bench.hostile_recordings import (
 )
 from jostle.bench.hostile_run import Case
 from jostle.bench.hostile_workspace import Workspace
+from sensors.base import ColorImage, Frame, PadSample
 from sensors.recording.codec import EncodedMessage
 
 GB = 1_000_000_000
@@ -138,6 +139,38 @@ def _as_png(m: EncodedMessage, width: int, height: int) -> bytes:
     ok, png = cv2.imencode(".png", image)
     msg.data, msg.format = png_with_size(png.tobytes(), width, height), "png"
     return bytes(msg.SerializeToString())
+
+
+def observer_cases(ws: Workspace, sample: bool) -> list[tuple[Case, bool]]:
+    """Data that changes under a running observer: the webcam's frame size, the number of pads."""
+    import numpy as np
+
+    d = ws.root / "rec"
+    d.mkdir(parents=True, exist_ok=True)
+
+    def changed(f: Frame, pads: int) -> Frame:
+        if f.sensor == "cam" and f.seq >= 20:
+            return Frame(f.sensor, f.t, f.seq, ColorImage(np.full((150, 200, 3), 90, np.uint8)))
+        if f.sensor == "pads" and f.seq >= 60:
+            return Frame(f.sensor, f.t, f.seq, PadSample((1.0,) * pads, (512,) * pads))
+        return f
+
+    cases: list[tuple[Case, bool]] = []
+    for name, pads in (("frame_size_and_3_pads", 3), ("frame_size_and_0_pads", 0)):
+        path = write_messages(d / f"{name}.mcap", [changed(f, pads) for f in drawn_frames() if f.sensor != "depth"])
+        cfg = ws.config(f"observers-{name}", f"""[run]\ntail_s = 0.0
+[sensors.cam]\ntype = "replay"\npath = "{path}"\nchannel = "cam"
+[sensors.pads]\ntype = "replay"\npath = "{path}"\nchannel = "pads"
+[observers.webcam]\ntype = "webcam"\nsensor = "cam"\ncalibration = "recordings/demo.calibration.toml"
+learn_frames = 5
+[observers.pads]\ntype = "pads"\nsensor = "pads"
+positions = [-2.0,0.0,1.0, -0.7,0.0,1.0, 0.7,0.0,1.0, 2.0,0.0,1.0]
+directions = [0.0,1.0,0.0, 0.0,1.0,0.0, 0.0,1.0,0.0, 0.0,1.0,0.0]
+[render]\nkeyframes = "keyframes/humanoid/keyframes.toml"\n""")
+        out = ws.out(f"observers-{name}")
+        argv = ("run", str(cfg), "--headless", "--no-video", "--quiet", "--out", str(out))
+        cases.append((Case("observers", name, argv, "line", path.stat().st_size), pads == 3))
+    return cases
 
 
 def config_cases(ws: Workspace, sample: bool) -> list[tuple[Case, bool]]:
