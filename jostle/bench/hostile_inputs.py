@@ -142,22 +142,25 @@ def _as_png(m: EncodedMessage, width: int, height: int) -> bytes:
 
 
 def observer_cases(ws: Workspace, sample: bool) -> list[tuple[Case, bool]]:
-    """Data that changes under a running observer: the webcam's frame size, the number of pads."""
+    """Data that changes under a running observer: the webcam's frame size (from frame 20 on), the
+    number of pads (in one pad frame: 3, 0 or 10⁶)."""
     import numpy as np
 
     d = ws.root / "rec"
     d.mkdir(parents=True, exist_ok=True)
 
-    def changed(f: Frame, pads: int) -> Frame:
-        if f.sensor == "cam" and f.seq >= 20:
+    def changed(f: Frame, resize: bool, pads: int | None) -> Frame:
+        if resize and f.sensor == "cam" and f.seq >= 20:
             return Frame(f.sensor, f.t, f.seq, ColorImage(np.full((150, 200, 3), 90, np.uint8)))
-        if f.sensor == "pads" and f.seq >= 60:
+        if pads is not None and f.sensor == "pads" and f.seq == 60:
             return Frame(f.sensor, f.t, f.seq, PadSample((1.0,) * pads, (512,) * pads))
         return f
 
     cases: list[tuple[Case, bool]] = []
-    for name, pads in (("frame_size_and_3_pads", 3), ("frame_size_and_0_pads", 0)):
-        path = write_messages(d / f"{name}.mcap", [changed(f, pads) for f in drawn_frames() if f.sensor != "depth"])
+    variants = [("frame_size", True, None), ("pads_3", False, 3), ("pads_0", False, 0), ("pads_1e6", False, 10**6)]
+    for name, resize, pads in variants[:2] if sample else variants:
+        frames = [changed(f, resize, pads) for f in drawn_frames() if f.sensor != "depth"]
+        path = write_messages(d / f"{name}.mcap", frames)
         cfg = ws.config(f"observers-{name}", f"""[run]\ntail_s = 0.0
 [sensors.cam]\ntype = "replay"\npath = "{path}"\nchannel = "cam"
 [sensors.pads]\ntype = "replay"\npath = "{path}"\nchannel = "pads"
@@ -169,7 +172,7 @@ directions = [0.0,1.0,0.0, 0.0,1.0,0.0, 0.0,1.0,0.0, 0.0,1.0,0.0]
 [render]\nkeyframes = "keyframes/humanoid/keyframes.toml"\n""")
         out = ws.out(f"observers-{name}")
         argv = ("run", str(cfg), "--headless", "--no-video", "--quiet", "--out", str(out))
-        cases.append((Case("observers", name, argv, "line", path.stat().st_size), pads == 3))
+        cases.append((Case("observers", name, argv, "line", path.stat().st_size), True))
     return cases
 
 

@@ -26,7 +26,7 @@ MEM_CAP_MB = 2048  # address space: a normal run maps ~1.4 GB; the RSS target is
 SAMPLE = (  # one case per kind of hostility per surface; the bench runs every variant
     "recording-sound", "recording-zeroed_block_chunk1", "recording-corrupt_chunk0", "recording-truncated_55pct",
     "recording-zstd_bomb_info", "recording-concatenated", "recording-jpeg_30000x30000",
-    "recording-time_jump_1e19ns", "observers-frame_size_and_3_pads",
+    "recording-time_jump_1e19ns", "observers-frame_size", "observers-pads_3",
     "config-fifo", "config-dev_zero_twin", "config-symlink_loop", "config-nested_3000", "config-dotted_20000",
     "config-sensors_10000", "config-tail_nan", "config-seed_minus1", "config-string_10mb",
     "cli-duration_nan", "keyframes-fifo", "character_spec-dev_zero_twin", "calibration-homography_zero",
