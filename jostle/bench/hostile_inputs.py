@@ -10,6 +10,7 @@ otherwise every variant (the bench).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from jostle.bench.hostile_recordings import (
@@ -23,7 +24,7 @@ from jostle.bench.hostile_recordings import (
     write_messages,
     zstd_bomb_chunk,
 )
-from jostle.bench.hostile_run import Case
+from jostle.bench.hostile_run import Case, Expect
 from jostle.bench.hostile_workspace import Workspace
 from sensors.base import ColorImage, Frame, PadSample
 from sensors.recording.codec import EncodedMessage
@@ -39,12 +40,12 @@ def _replay_config(ws: Workspace, recording: Path) -> Path:
     return ws.config("replay-" + recording.stem, "\n".join(lines) + "\n")
 
 
-def _replay_case(ws: Workspace, name: str, path: Path, expect: str = "warning", intact: int | None = None,
+def _replay_case(ws: Workspace, name: str, path: Path, expect: Expect = "warning", intact: int | None = None,
                  sample: bool = False) -> tuple[Case, bool]:
     out = ws.out("recording-" + name)
     argv = ("replay", str(path), "--config", str(_replay_config(ws, path)), "--headless", "--no-video",
             "--quiet", "--out", str(out))
-    return Case("recording", name, argv, expect, path.stat().st_size, intact, out / "summary.json"), sample  # type: ignore[arg-type]
+    return Case("recording", name, argv, expect, path.stat().st_size, intact, out / "summary.json"), sample
 
 
 def recording_cases(ws: Workspace, sample: bool) -> list[tuple[Case, bool]]:
@@ -89,14 +90,14 @@ def recording_cases(ws: Workspace, sample: bool) -> list[tuple[Case, bool]]:
     cases.append(_replay_case(ws, "empty_file", empty, "error"))
     cases.append(_replay_case(ws, "concatenated", _write(d / "concatenated.mcap", data + data), "warning", None, True))
 
-    def lying(name: str, fn: object, in_sample: bool = False) -> None:
+    def lying(name: str, fn: Callable[[EncodedMessage], bytes | None], in_sample: bool = False) -> None:
         done: list[int] = []
 
         def tamper(index: int, m: EncodedMessage) -> bytes | None:
             """The first message ``fn`` changes at or after frame 30 (one lying image in the file)."""
             if index < 30 or done:
                 return None
-            data: bytes | None = fn(m)  # type: ignore[operator]
+            data = fn(m)
             if data is not None:
                 done.append(index)
             return data
@@ -180,12 +181,12 @@ def config_cases(ws: Workspace, sample: bool) -> list[tuple[Case, bool]]:
     """Configs that are not files, that nest or repeat without end, and numbers out of range."""
     cases: list[tuple[Case, bool]] = []
 
-    def add(name: str, path: Path | None, expect: str = "error", in_sample: bool = False, *extra: str) -> None:
+    def add(name: str, path: Path | None, expect: Expect = "error", in_sample: bool = False, *extra: str) -> None:
         if path is None:
             ws.skipped.append(f"config-{name} (mknod refused)")
             return
         size = path.stat().st_size if path.is_file() else 0
-        cases.append((Case("config", name, ws.run_argv(path, "config-" + name, *extra), expect, size), in_sample))  # type: ignore[arg-type]
+        cases.append((Case("config", name, ws.run_argv(path, "config-" + name, *extra), expect, size), in_sample))
 
     add("fifo", ws.fifo("config.fifo.toml"), in_sample=True)
     add("dev_zero_twin", ws.device_twin("zero.toml", 5), in_sample=True)

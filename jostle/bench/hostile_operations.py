@@ -19,7 +19,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from jostle.bench.hostile_run import Case
+from jostle.bench.hostile_run import Case, Expect
 from jostle.bench.hostile_workspace import REPO, Workspace, is_char_device, is_fifo
 
 Pairs = list[tuple[Case, bool]]
@@ -67,9 +67,9 @@ def service_cases(ws: Workspace, sample: bool) -> Pairs:
         cfg = _minimal_config(ws, ws.root / "in" / "svc" / folder / "demo.toml")
         units = ws.out(f"service-path_{name}") / "units"
         units.mkdir(exist_ok=True)
-        expect = "error" if name == "newline" else "ok"
+        expect: Expect = "error" if name == "newline" else "ok"
         argv = ("service", "install", str(cfg), "--unit-dir", str(units), "--name", f"p{name}", "--mode", "headless")
-        cases.append((Case("service", f"path_{name}", argv, expect, checks=(_unit_sound(units),)),  # type: ignore[arg-type]
+        cases.append((Case("service", f"path_{name}", argv, expect, checks=(_unit_sound(units),)),
                       name in ("space", "newline")))
     cfg = _minimal_config(ws, ws.root / "in" / "svc" / "plain" / "demo.toml")
     flags = {"display_injection": ("--display", f":0\nExecStartPre=/bin/touch /tmp/{MARK}"),

@@ -24,7 +24,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import IO, Literal
 
 Expect = Literal["error", "warning", "line", "ok", "any"]
 BAD = ("hang", "traceback", "internal_error")
@@ -128,8 +128,8 @@ def run_case(case: Case, *, timeout_s: float, mem_cap_mb: int, cwd: Path) -> Out
     peak_kb, hung = 0, False
     out_chunks: dict[str, bytes] = {}
 
-    def drain(name: str, stream: object) -> None:
-        out_chunks[name] = stream.read()  # type: ignore[attr-defined]
+    def drain(name: str, stream: IO[bytes] | None) -> None:
+        out_chunks[name] = stream.read() if stream is not None else b""
 
     readers = [threading.Thread(target=drain, args=(n, s), daemon=True)
                for n, s in (("out", proc.stdout), ("err", proc.stderr))]
