@@ -13,6 +13,7 @@ from __future__ import annotations
 from types import ModuleType
 
 from jostle.bench import (
+    hostile,
     identify,
     interaction,
     performer,
@@ -37,5 +38,6 @@ BENCHES: dict[str, tuple[ModuleType, str]] = {
     "synth": (performer, "virtual performer: ms per frame of webcam, OAK depth (+colour) and pads"),
     "soak": (soak, "the demo looped headless for minutes: memory and frame-rate drift"),
     "ragdoll": (ragdoll, "articulated characters: cost vs DeepMimic stable PD, tracking, pushes, get-ups"),
+    "hostile": (hostile, "a few hundred bad inputs over every surface: one line each, no tracebacks, hangs or bombs"),
     "quadruped": (quadruped, "quadruped on generated cube terrains: goals, feet, replan time, fps"),
 }
