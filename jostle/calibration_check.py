@@ -1,4 +1,4 @@
-"""Before a run: each webcam observer's calibration against the image size its sensor gives.
+"""Before a run: each webcam or depth observer's calibration against the image size its sensor gives.
 
 Called once the sensors are open (a video file, a recording or a camera then reports its real size,
 :class:`sensors.base.SensorSpec`): a calibration made for another size of the same shape is rescaled
@@ -21,10 +21,19 @@ from sensors.base import Sensor
 def calibration_for(ob: ObserverEntry, sensor: Sensor) -> Path | Calibration | FloorCalibration | None:
     """What observer ``ob`` is built with: its calibration file, or the calibration rescaled to the
     images of ``sensor`` (raises CalibrationError for images of another shape)."""
-    if ob.type != "webcam" or ob.calibration is None:
+    if ob.type not in ("webcam", "depth") or ob.calibration is None:
         return ob.calibration
     spec = sensor.spec
     if spec.width is None or spec.height is None:
+        return ob.calibration
+    if ob.type == "depth":  # in metres, so another scale is the same camera; another shape is refused
+        from interaction.depth.calibration import DepthCalibration
+        from sensors.untrusted import UntrustedInput
+
+        try:
+            DepthCalibration.load(ob.calibration).fits_image((spec.width, spec.height))
+        except UntrustedInput as e:
+            raise UntrustedInput(str(ob.calibration), f"{e.problem} (sensor {ob.sensor!r})") from None
         return ob.calibration
     loaded = load_webcam_calibration(ob.calibration)  # an upright plane or the floor
     fitted = fit_to_image_size(loaded, (spec.width, spec.height), file=ob.calibration,

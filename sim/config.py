@@ -15,6 +15,11 @@ from sim.stepping import compute_n_substeps
 INTENTS = ("idle", "wander", "approach", "flee", "follow")
 
 
+# A character's body within sizes a person would draw and pybullet can step (m, kg, kg·m²).
+_BODY_RANGES = (("height", 0.1, 10.0), ("mass", 0.1, 10_000.0), ("inertia", 1e-3, 1e5), ("half_depth", 0.01, 5.0),
+                ("half_width", 0.01, 5.0))
+
+
 def _check_positive(obj: object, *names: str) -> None:
     for name in names:
         value = getattr(obj, name)
@@ -192,6 +197,10 @@ class CharacterSpec:
         if self.after_fall_intent not in ("", *INTENTS):
             raise ValueError(f"after_fall_intent: expected \"\" or one of {', '.join(INTENTS)}, "
                              f"got {self.after_fall_intent!r}")
+        for key, lo, hi in _BODY_RANGES:  # a body pybullet can step: 1e308 m overflows on its way in
+            value = getattr(self, key)
+            if not lo <= value <= hi:
+                raise ValueError(f"{key}: expected {lo:g} to {hi:g} (a character's body), got {value!r}")
         if not self.com_height < self.height:
             raise ValueError(f"com_height: expected < height={self.height}, got {self.com_height}")
         if not self.widest_height < self.height:

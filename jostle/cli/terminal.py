@@ -20,7 +20,11 @@ CLOSED_PIPE = 141
 
 
 class OneLineFormatter(logging.Formatter):
-    """The record's message without its traceback (``--debug`` shows tracebacks)."""
+    """The record's message without its traceback (``--debug`` shows tracebacks), its level in lower
+    case (``jostle: warning: …``, like the command's own error and warning lines)."""
+
+    def formatMessage(self, record: logging.LogRecord) -> str:  # noqa: N802 (logging's name)
+        return str(self._fmt) % dict(vars(record), levelname=record.levelname.lower())
 
     def formatException(self, ei: object) -> str:  # noqa: N802 (logging's name)
         return ""

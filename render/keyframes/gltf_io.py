@@ -266,6 +266,9 @@ def _stage_animation(staged: StagedSet, anim: Any, name: str, extras: dict[str, 
     for c, ch in enumerate(anim.channels or []):
         if not isinstance(ch.sampler, int) or not 0 <= ch.sampler < len(samplers) or ch.target is None:
             raise KeyframeError(f"{path}: animation {shorten(name)}: channel {c}: no such sampler or no target")
+        if not isinstance(ch.target.node, int) or not 0 <= ch.target.node < len(doc.nodes or []):
+            raise KeyframeError(f"{path}: animation {shorten(name)}: channel {c}: target node "
+                                f"{shorten(ch.target.node)} is not one of the file's {len(doc.nodes or [])} nodes")
         tracks[(ch.target.node, ch.target.path)] = _read(doc, samplers[ch.sampler].output, path, buffers)
     keys = extras.get("keys", [])
     if not isinstance(keys, list) or not all(isinstance(k, dict) for k in keys):

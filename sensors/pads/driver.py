@@ -21,6 +21,7 @@
 from __future__ import annotations
 
 import errno
+import logging
 import math
 import os
 import time
@@ -43,6 +44,8 @@ from sensors.pads.calibration import PadCalibration
 from sensors.pads.config import PadsConfig
 from sensors.pads.protocol import FRAMINGS, SequenceTracker, StreamParser
 from sensors.threaded import Backoff, LinkLost, ThreadedDriver
+
+log = logging.getLogger("jostle.pads")
 
 QUEUE_SIZE = 32  # frames waiting for read(); at 100 Hz a third of a second
 _READ_SLICE_S = 0.05  # the reader thread's longest wait in one serial read (bounds close())
@@ -91,6 +94,7 @@ class PadsSensor(ThreadedDriver[Any]):  # the link is a pyserial port
         self._calibration = PadCalibration(c.scales, c.tare_samples, c.deadband_n)
         self._bad_times: deque[float] = deque(maxlen=c.max_bad_per_s + 1)
         self._bad_seen = 0
+        self._bad_said = False  # the first bad message is said once; the rest are counted
         self._frames = 0
         self._reconnects = 0
         self._next_seq: int | None = None  # the seq of the next frame; None before the first
@@ -216,6 +220,10 @@ class PadsSensor(ThreadedDriver[Any]):  # the link is a pyserial port
                 self._queue.put(frame)
             fresh_bad = self._parser.bad - self._bad_seen
             self._bad_seen = self._parser.bad
+            if fresh_bad and not self._bad_said:
+                self._bad_said = True
+                log.warning("pads %r on %s: a bad %s skipped (%s); more are counted in its status", self.name,
+                            self.config.port, self._framing.message, self._parser.last_bad)
             if fresh_bad and self._too_many_bad(fresh_bad, wall):
                 c = self.config
                 self._state = SensorState.FAILED
