@@ -1,8 +1,8 @@
 """The contact law between people and characters: a penalty spring-damper with each person's force budget.
 
-Contactor bodies take no part in pybullet's contact solver (collision group and mask 0); before every
-physics substep ``PersonContact.apply`` finds, for each contactor, the character links whose boxes it
-overlaps (``getOverlappingObjects``) and their closest points (``getClosestPoints``, one per pair).
+Contactor bodies take no part in pybullet's contact solver (collision group and mask 0); once per tick
+``prepare`` finds the character links near each contactor (``getOverlappingObjects``), and before every
+physics substep ``apply`` reads their closest points (``getClosestPoints``, one per pair).
 Each touching pair pushes the link at its closest point with a normal force ``k·depth + c·approach``
 (≥ 0; ``c`` capped at ``0.5·m_link/dt`` so the explicit step stays stable) and a tangential drag
 ``c·v_slip`` capped at ``μ·normal``, which carries the character along the hand's motion. Then each
@@ -15,16 +15,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import Any
 
-import numpy as np
 import pybullet as p
 
-from interaction.types import Contactor
+from interaction.types import Contactor, Vec3
 
 __all__ = ["PersonContact", "PairForce"]
 
 PairForce = dict[tuple[str, int], float]  # (character, person) → |F| summed over that pair's points, N
 _STABLE = 0.5  # damping at most this fraction of m/dt (explicit Euler on the link)
+_MARGIN_M = 0.1  # how far a character may move in one control tick (3 m/s at 30 Hz), for the per-tick search
 
 
 class PersonContact:
@@ -37,6 +38,7 @@ class PersonContact:
         self._mu = friction
         self._budget = budget_n
         self._masses: dict[tuple[int, int], float] = {}
+        self._near: dict[int, list[tuple[int, int, str]]] = {}  # contactor body → links near it this tick
         self.peak_person_n = 0.0  # largest total one person applied in a substep since made
         self.last_vectors: dict[tuple[str, int], tuple[float, float, float]] = {}  # summed force vectors
 
@@ -47,7 +49,7 @@ class PersonContact:
             m = self._masses[key] = float(p.getDynamicsInfo(body, link, physicsClientId=self._client)[0])
         return m
 
-    def _point_velocity(self, body: int, link: int, at: np.ndarray) -> np.ndarray:
+    def _point_velocity(self, body: int, link: int, at: Vec3) -> Vec3:
         cid = self._client
         if link < 0:
             v, w = p.getBaseVelocity(body, physicsClientId=cid)
@@ -55,62 +57,73 @@ class PersonContact:
         else:
             state = p.getLinkState(body, link, computeLinkVelocity=1, physicsClientId=cid)
             com, v, w = state[0], state[6], state[7]
-        return np.asarray(v) + np.cross(np.asarray(w), at - np.asarray(com))
+        rx, ry, rz = at[0] - com[0], at[1] - com[1], at[2] - com[2]
+        return (v[0] + w[1] * rz - w[2] * ry, v[1] + w[2] * rx - w[0] * rz, v[2] + w[0] * ry - w[1] * rx)
 
-    def _pair_force(self, c: Contactor, body: int, link: int, cp: tuple[object, ...], dt: float,
-                    ahead: float) -> np.ndarray:
-        normal = -np.asarray(cp[7], dtype=float)  # on the character, away from the contactor
-        velocity = np.asarray(c.velocity, dtype=float)
-        depth = -float(cp[8]) + ahead * float(velocity @ normal)  # type: ignore[arg-type]
+    def _pair_force(self, c: Contactor, body: int, link: int, cp: tuple[Any, ...], dt: float,
+                    ahead: float) -> Vec3 | None:
+        """The force (N, world frame) on the character at the closest point ``cp``; None: no push."""
+        nx, ny, nz = -cp[7][0], -cp[7][1], -cp[7][2]  # on the character, away from the contactor
+        vx, vy, vz = c.velocity
+        depth = -cp[8] + ahead * (vx * nx + vy * ny + vz * nz)
         if depth <= 0.0:
-            return np.zeros(3)
-        at = np.asarray(cp[6], dtype=float)
-        slip = velocity - self._point_velocity(body, link, at)
-        c_eff = min(self._c, _STABLE * self._mass(body, link) / dt) if self._c > 0 else 0.0
-        approach = float(slip @ normal)
-        f_n = max(0.0, self._k * depth + c_eff * approach)
+            return None
+        u = self._point_velocity(body, link, cp[6])
+        sx, sy, sz = vx - u[0], vy - u[1], vz - u[2]  # the contactor's slip over the character's surface
+        c_eff = min(self._c, _STABLE * self._mass(body, link) / dt)
+        approach = sx * nx + sy * ny + sz * nz
+        f_n = self._k * depth + c_eff * approach
         if f_n <= 0.0:
-            return np.zeros(3)
-        tangent = slip - approach * normal
-        speed = float(np.linalg.norm(tangent))
-        f_t = min(self._mu * f_n, c_eff * speed)
-        drag = tangent * (f_t / speed) if speed > 1e-9 else np.zeros(3)
-        return f_n * normal + drag
+            return None
+        tx, ty, tz = sx - approach * nx, sy - approach * ny, sz - approach * nz
+        speed = math.sqrt(tx * tx + ty * ty + tz * tz)
+        drag = min(self._mu * f_n, c_eff * speed) / speed if speed > 1e-9 else 0.0
+        return (f_n * nx + drag * tx, f_n * ny + drag * ty, f_n * nz + drag * tz)
 
-    def apply(self, contactors: Mapping[int, Contactor], characters: Mapping[int, str], dt: float,
-              ahead: float = 0.0) -> PairForce:
+    def prepare(self, contactors: Mapping[int, Contactor], characters: Mapping[int, str], horizon: float) -> None:
+        """Once per control tick, after the contactors are placed: the character links each contactor may
+        touch within ``horizon`` s (its box grown by its own travel and ``_MARGIN_M`` for the character's)."""
+        cid = self._client
+        near: dict[int, list[tuple[int, int, str]]] = {}
+        for cbody, c in contactors.items():
+            reach = horizon * math.sqrt(sum(v * v for v in c.velocity)) + _MARGIN_M
+            lo, hi = p.getAABB(cbody, physicsClientId=cid)
+            found = p.getOverlappingObjects([v - reach for v in lo], [v + reach for v in hi], physicsClientId=cid)
+            links = [(body, link, characters[body]) for body, link in found or () if body in characters]
+            if links:
+                near[cbody] = links
+        self._near = near
+
+    def apply(self, contactors: Mapping[int, Contactor], dt: float, ahead: float = 0.0) -> PairForce:
         """Push the characters for the coming substep of ``dt`` s; returns the force of each pair (N).
 
         The contactors' bodies stand where they were placed; ``ahead`` s later each has moved on along its
-        velocity (to first order along the contact normal), and that is where it pushes from.
+        velocity (to first order along the contact normal), and that is where it pushes from. Only the
+        links ``prepare`` found near are looked at.
         """
         cid = self._client
-        found: list[tuple[int, int, str, int, tuple[float, float, float], np.ndarray]] = []
+        found: list[tuple[int, int, str, int, Vec3, Vec3]] = []
         totals: dict[int, float] = {}
-        for cbody, c in contactors.items():
+        for cbody, links in self._near.items():
+            c = contactors[cbody]
             reach = ahead * math.sqrt(sum(v * v for v in c.velocity))
-            lo, hi = p.getAABB(cbody, physicsClientId=cid)
-            lo, hi = [v - reach for v in lo], [v + reach for v in hi]
-            for body, link in p.getOverlappingObjects(lo, hi, physicsClientId=cid) or ():
-                name = characters.get(body)
-                if name is None:
-                    continue
+            for body, link, name in links:
                 for cp in p.getClosestPoints(cbody, body, reach, linkIndexB=link, physicsClientId=cid):
                     f = self._pair_force(c, body, link, cp, dt, ahead)
-                    size = float(np.linalg.norm(f))
-                    if size > 0.0:
+                    if f is not None:
                         found.append((body, link, name, c.person, cp[6], f))
-                        totals[c.person] = totals.get(c.person, 0.0) + size
-        scale = {person: min(1.0, self._budget / total) for person, total in totals.items()}
+                        totals[c.person] = totals.get(c.person, 0.0) + math.sqrt(f[0] ** 2 + f[1] ** 2 + f[2] ** 2)
         pairs: PairForce = {}
-        vectors: dict[tuple[str, int], np.ndarray] = {}
+        vectors: dict[tuple[str, int], Vec3] = {}
+        for total in totals.values():
+            self.peak_person_n = max(self.peak_person_n, min(total, self._budget))
         for body, link, name, person, at, f in found:
-            f = f * scale[person]
-            p.applyExternalForce(body, link, f.tolist(), at, p.WORLD_FRAME, physicsClientId=cid)
+            k = min(1.0, self._budget / totals[person])
+            f = (f[0] * k, f[1] * k, f[2] * k)
+            p.applyExternalForce(body, link, f, at, p.WORLD_FRAME, physicsClientId=cid)
             key = (name, person)
-            pairs[key] = pairs.get(key, 0.0) + float(np.linalg.norm(f))
-            vectors[key] = vectors.get(key, np.zeros(3)) + f
-        for person, total in totals.items():
-            self.peak_person_n = max(self.peak_person_n, total * scale[person])
-        self.last_vectors = {key: (float(v[0]), float(v[1]), float(v[2])) for key, v in vectors.items()}
+            pairs[key] = pairs.get(key, 0.0) + math.sqrt(f[0] ** 2 + f[1] ** 2 + f[2] ** 2)
+            v = vectors.get(key, (0.0, 0.0, 0.0))
+            vectors[key] = (v[0] + f[0], v[1] + f[1], v[2] + f[2])
+        self.last_vectors = vectors
         return pairs

@@ -293,6 +293,9 @@ class World:
             population.before_tick(tick)
         self._pool.place(contactors)
         self._placed_t = t0
+        if self._pool.active:
+            bodies = {body: name for population in populations for body, name in population.bodies.items()}
+            self._law.prepare(self._pool.active, bodies, cfg.control_dt)
         start = time.perf_counter()
         for k in range(self._n_sub):
             fine = max(population.substeps() for population in populations)  # finer while one recovers
@@ -319,8 +322,7 @@ class World:
         per person, applied before the step, reported to each population after it)."""
         for population in populations:
             population.before_substep(dt, recovering)
-        bodies = {body: name for population in populations for body, name in population.bodies.items()}
-        forces = self._law.apply(self._pool.active, bodies, dt, t_sub - dt - self._placed_t) if self._pool.active else {}
+        forces = self._law.apply(self._pool.active, dt, t_sub - dt - self._placed_t) if self._pool.active else {}
         p.stepSimulation(physicsClientId=self._require_open())
         if not forces:
             return

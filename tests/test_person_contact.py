@@ -24,9 +24,8 @@ def _record_totals(world: World) -> list[dict[int, float]]:
     apply = law.apply
     totals: list[dict[int, float]] = []
 
-    def recorded(contactors: Mapping[int, Contactor], characters: Mapping[int, str], dt: float,
-                 ahead: float = 0.0) -> PairForce:
-        pairs = apply(contactors, characters, dt, ahead)
+    def recorded(contactors: Mapping[int, Contactor], dt: float, ahead: float = 0.0) -> PairForce:
+        pairs = apply(contactors, dt, ahead)
         per: dict[int, float] = {}
         for (_, person), f in pairs.items():
             per[person] = per.get(person, 0.0) + f
