@@ -62,8 +62,8 @@ class WorldConfig:
     # The contact law (``sim.person_contact``): people push like springs (N/m per metre of overlap) with
     # damping (N·s/m), and all of one person's contactors together push with at most max_person_force_n
     # (N; about a strong adult's shove, lower for a children's installation), checked every substep.
-    contactor_stiffness: float = 4000.0
-    contactor_damping: float = 400.0
+    contactor_stiffness: float = 20000.0
+    contactor_damping: float = 2000.0
     max_person_force_n: float = 800.0
     max_contactor_speed: float = 15.0  # m/s; faster contactor velocities are clamped (and counted)
     max_contactor_radius: float = 1.0  # m; radii/half-depths are clamped to this
