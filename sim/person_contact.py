@@ -39,8 +39,6 @@ class PersonContact:
         self._budget = budget_n
         self._masses: dict[tuple[int, int], float] = {}
         self._near: dict[int, list[tuple[int, int, str]]] = {}  # contactor body → links near it this tick
-        self.peak_person_n = 0.0  # largest total one person applied in a substep since made
-        self.last_vectors: dict[tuple[str, int], tuple[float, float, float]] = {}  # summed force vectors
 
     def _mass(self, body: int, link: int) -> float:
         key = (body, link)
@@ -114,16 +112,10 @@ class PersonContact:
                         found.append((body, link, name, c.person, cp[6], f))
                         totals[c.person] = totals.get(c.person, 0.0) + math.sqrt(f[0] ** 2 + f[1] ** 2 + f[2] ** 2)
         pairs: PairForce = {}
-        vectors: dict[tuple[str, int], Vec3] = {}
-        for total in totals.values():
-            self.peak_person_n = max(self.peak_person_n, min(total, self._budget))
         for body, link, name, person, at, f in found:
             k = min(1.0, self._budget / totals[person])
             f = (f[0] * k, f[1] * k, f[2] * k)
             p.applyExternalForce(body, link, f, at, p.WORLD_FRAME, physicsClientId=cid)
             key = (name, person)
             pairs[key] = pairs.get(key, 0.0) + math.sqrt(f[0] ** 2 + f[1] ** 2 + f[2] ** 2)
-            v = vectors.get(key, (0.0, 0.0, 0.0))
-            vectors[key] = (v[0] + f[0], v[1] + f[1], v[2] + f[2])
-        self.last_vectors = vectors
         return pairs
