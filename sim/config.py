@@ -63,12 +63,13 @@ class WorldConfig:
     y_max: float = 1.0
     contact_episode_gap_s: float = 0.1  # a contact episode ends after this long without contact
     contactor_hold_s: float = 0.25  # contactors of the last observation stay (extrapolated) this long
-    contactor_friction: float = 0.5
-    # People are not infinitely stiff: contacts with contactors are springs (N/m) with damping (N·s/m),
-    # so a contactor that appears inside a body, or pins one to the floor, pushes with a bounded force.
-    # 0 stiffness = rigid contacts (unbounded forces when a contactor is teleported into a body).
-    contactor_stiffness: float = 0.0
-    contactor_damping: float = 0.0
+    contactor_friction: float = 0.5  # μ: a contactor's drag along its motion is at most μ·(normal force)
+    # The contact law (``sim.person_contact``): people push like springs (N/m per metre of overlap) with
+    # damping (N·s/m), and all of one person's contactors together push with at most max_person_force_n
+    # (N; about a strong adult's shove, lower for a children's installation), checked every substep.
+    contactor_stiffness: float = 20000.0
+    contactor_damping: float = 2000.0
+    max_person_force_n: float = 800.0
     max_contactor_speed: float = 15.0  # m/s; faster contactor velocities are clamped (and counted)
     max_contactor_radius: float = 1.0  # m; radii/half-depths are clamped to this
     max_impulse_force_n: float = 3000.0  # pad forces are clamped to this magnitude
@@ -87,7 +88,7 @@ class WorldConfig:
         _check_positive(self, "physics_dt", "control_dt", "gravity", "contact_episode_gap_s",
                         "max_contactor_speed", "max_contactor_radius", "max_impulse_force_n",
                         "max_impulse_duration_s", "max_impulse_ns", "stuck_timeout_s", "max_character_speed",
-                        "max_character_spin")
+                        "max_character_spin", "max_person_force_n")
         _check_non_negative(self, "floor_friction", "contactor_hold_s", "contactor_friction",
                             "stage_escape_margin", "contactor_stiffness", "contactor_damping")
         for name in ("max_catchup_ticks", "solver_iterations"):

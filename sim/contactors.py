@@ -1,17 +1,13 @@
-"""People in the physics: contactors as kinematic pybullet bodies, and contact episodes.
+"""People in the physics: contactors as pybullet bodies for their shape, and contact episodes.
 
-Choice: kinematic bodies, not a penalty model. A contactor is a zero-mass pybullet *multibody*
-(sphere, or a capsule along stage y when ``half_depth > 0``) moved once per control tick with
-``resetBasePositionAndOrientation`` + ``resetBaseVelocity``. Measured here: the contact solver uses a
-zero-mass multibody's base velocity, so a hand moving at 1 m/s brings a 40 kg box to 1 m/s on contact
-(a zero-mass *maximal-coordinates* body is a fixed solver body: velocity ignored, the box only pushed
-out by split-impulse position correction, no force reported). Why not a penalty model: pybullet's
-solver already handles the character's real convex hull, other characters and the floor in one
-consistent contact problem (no spring stiffness to tune against the 60 Hz control rate, no second
-collision geometry to keep in step with the hull), and reports the forces it applied.
+A contactor is a zero-mass pybullet multibody (sphere, or a capsule along stage y when
+``half_depth > 0``) moved once per control tick with ``resetBasePositionAndOrientation``. It takes no
+part in the contact solver (collision group and mask 0): ``sim.person_contact`` reads its closest points
+to the characters and applies the contact law with the person's force budget. (Until issue K these were
+kinematic solver bodies; their forces had no bound: ``docs/notes/contact-law.md``.)
 
 Bodies are pooled by quantised shape (radius to 1 cm, half-depth to 5 cm) and reused frame to frame;
-unused ones are parked far below the floor (contactors collide with characters only).
+unused ones are parked far below the floor.
 
 ``ContactEpisodes`` turns per-substep forces into episodes per (person, character): an episode starts
 at the first contact and ends after ``gap_s`` without one, yielding a ``ContactEvent`` with the
@@ -21,13 +17,12 @@ impulse ∫F dt, the peak force and whether the impulse reached the character's 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import pybullet as p
 
 from interaction.types import Contactor
-from sim.physics import GROUP_CONTACTOR, MASK_CONTACTOR
 from sim.snapshot import ContactEvent
 
 _RADIUS_STEP = 0.01
@@ -42,15 +37,12 @@ ShapeKey = tuple[int, int]
 class ContactorPool:
     """Kinematic bodies standing for the people's contactors in one pybullet client."""
 
-    def __init__(self, client: int, friction: float, stiffness: float = 0.0, damping: float = 0.0) -> None:
+    def __init__(self, client: int) -> None:
         self._client = client
-        self._friction = friction
-        self._stiffness = stiffness
-        self._damping = damping
         self._shapes: dict[ShapeKey, int] = {}
         self._bodies: dict[ShapeKey, list[int]] = {}
         self._parked: set[int] = set()
-        self.active: dict[int, int] = {}  # body id -> person
+        self.active: dict[int, Contactor] = {}  # body id -> the contactor it stands for
 
     def _shape(self, key: ShapeKey) -> int:
         shape = self._shapes.get(key)
@@ -69,12 +61,7 @@ class ContactorPool:
         body: int = p.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=self._shape(key),
                                       basePosition=_PARK, useMaximalCoordinates=False,
                                       physicsClientId=self._client)
-        p.setCollisionFilterGroupMask(body, -1, GROUP_CONTACTOR, MASK_CONTACTOR, physicsClientId=self._client)
-        p.changeDynamics(body, -1, lateralFriction=self._friction, restitution=0.0,
-                         physicsClientId=self._client)
-        if self._stiffness > 0:
-            p.changeDynamics(body, -1, contactStiffness=self._stiffness, contactDamping=self._damping,
-                             physicsClientId=self._client)
+        p.setCollisionFilterGroupMask(body, -1, 0, 0, physicsClientId=self._client)  # outside the solver
         self._bodies.setdefault(key, []).append(body)
         return body
 
@@ -83,9 +70,9 @@ class ContactorPool:
         return max(1, round(c.radius / _RADIUS_STEP)), max(0, round(c.half_depth / _DEPTH_STEP))
 
     def place(self, contactors: Sequence[Contactor]) -> None:
-        """Move the pool's bodies onto ``contactors`` (with their velocities); park the rest."""
+        """Move the pool's bodies onto ``contactors``; park the rest."""
         used: dict[ShapeKey, int] = {}
-        active: dict[int, int] = {}
+        active: dict[int, Contactor] = {}
         for c in contactors:
             key = self.shape_key(c)
             k = used.get(key, 0)
@@ -94,29 +81,14 @@ class ContactorPool:
             used[key] = k + 1
             turn = _CAPSULE_ALONG_Y if key[1] > 0 else _NO_TURN
             p.resetBasePositionAndOrientation(body, c.position, turn, physicsClientId=self._client)
-            p.resetBaseVelocity(body, c.velocity, (0.0, 0.0, 0.0), physicsClientId=self._client)
             self._parked.discard(body)
-            active[body] = c.person
+            active[body] = c
         for key, pool in self._bodies.items():
             for body in pool[used.get(key, 0):]:
                 if body not in self._parked:
                     p.resetBasePositionAndOrientation(body, _PARK, _NO_TURN, physicsClientId=self._client)
-                    p.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._client)
                     self._parked.add(body)
         self.active = active
-
-    def read_forces(self, characters: Mapping[int, str]) -> dict[tuple[str, int], float]:
-        """Force (N, normal and friction) each person puts on each character in the last physics step."""
-        forces: dict[tuple[str, int], float] = {}
-        for body, person in self.active.items():
-            for cp in p.getContactPoints(bodyA=body, physicsClientId=self._client):
-                name = characters.get(cp[2])
-                if name is None:
-                    continue
-                f = math.sqrt(cp[9] * cp[9] + cp[10] * cp[10] + cp[12] * cp[12])
-                key = (name, person)
-                forces[key] = forces.get(key, 0.0) + f
-        return forces
 
     @property
     def size(self) -> int:

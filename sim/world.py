@@ -2,10 +2,10 @@
 
 ``World.step(observation, dt)`` accumulates ``dt`` and runs whole control ticks. The characters are
 populations, one per kind (``sim.population``: ``sim.mitake``, ``sim.quadruped``, ``sim.articulated``),
-each called at the same points of a tick: ``before_tick``; the contactors placed (kinematic, with the
-people's velocity); ``n_substeps`` physics steps of ``physics_dt`` (finer while a population asks for
-it), each between ``before_substep`` and ``after_substep`` (people's contact forces, read per substep:
-``getContactPoints`` only reports the last one); ``after_tick``; contact episodes closed and
+each called at the same points of a tick: ``before_tick``; the contactors placed (``sim.contactors``);
+``n_substeps`` physics steps of ``physics_dt`` (finer while a population asks for it), each between
+``before_substep`` and ``after_substep``, with the people's contact forces computed, bounded per person
+and applied before each step (``sim.person_contact``); ``after_tick``; contact episodes closed and
 ``notice``d. Catch-up is capped at ``max_catchup_ticks``; the skipped time is reported.
 
 Input: the contactors of the latest observation stand (moved along their velocity) for
@@ -35,6 +35,7 @@ from sim.inputs import clean_observation, clean_push, contactors_at
 from sim.mitake.character import CharacterView
 from sim.mitake.crowd import Crowd
 from sim.mitake.population import MitakeCharacters
+from sim.person_contact import PersonContact
 from sim.physics import open_client
 from sim.population import Population, Tick
 from sim.quadruped.config import QuadrupedSpec
@@ -67,13 +68,15 @@ class World:
         self._n_sub = config.n_substeps
         client, self._floor = open_client(config)
         self._client: int | None = client
-        self._pool = ContactorPool(client, config.contactor_friction, config.contactor_stiffness,
-                                   config.contactor_damping)
+        self._pool = ContactorPool(client)
+        self._law = PersonContact(client, config.contactor_stiffness, config.contactor_damping,
+                                  config.contactor_friction, config.max_person_force_n)
         self._episodes = ContactEpisodes(config.contact_episode_gap_s)
         self._ticks = 0
         self._pending = 0.0
         self._contactors: tuple[Contactor, ...] = ()
         self._contactors_t = 0.0
+        self._placed_t = 0.0  # when the contactors' bodies were last placed
         self._seen: dict[Impulse, float] = {}  # impulses applied, until when a repeat is the same one
         self._counts = {f: 0 for f in WorldCounters.__dataclass_fields__}
         self.physics_wall_s = 0.0  # wall seconds spent in the physics substeps (for benchmarks)
@@ -289,6 +292,10 @@ class World:
         for population in populations:
             population.before_tick(tick)
         self._pool.place(contactors)
+        self._placed_t = t0
+        if self._pool.active:
+            bodies = {body: name for population in populations for body, name in population.bodies.items()}
+            self._law.prepare(self._pool.active, bodies, cfg.control_dt)
         start = time.perf_counter()
         for k in range(self._n_sub):
             fine = max(population.substeps() for population in populations)  # finer while one recovers
@@ -311,19 +318,19 @@ class World:
             population.notice(tick, [ev for ev in ended if ev.character in population])
 
     def _physics_step(self, populations: list[Population], dt: float, recovering: bool, t_sub: float) -> None:
-        """One ``stepSimulation`` of ``dt``, then the people's contact forces on each population."""
+        """One ``stepSimulation`` of ``dt`` with the people's contact forces (``sim.person_contact``: bounded
+        per person, applied before the step, reported to each population after it)."""
         for population in populations:
             population.before_substep(dt, recovering)
+        forces = self._law.apply(self._pool.active, dt, t_sub - dt - self._placed_t) if self._pool.active else {}
         p.stepSimulation(physicsClientId=self._require_open())
-        if not self._pool.active:
+        if not forces:
             return
+        for (name, person), f in forces.items():
+            self._episodes.add(t_sub, name, person, f, dt)
         for population in populations:
-            if not population.bodies:
-                continue
-            forces = self._pool.read_forces(population.bodies)
-            for (name, person), f in forces.items():
-                self._episodes.add(t_sub, name, person, f, dt)
-            population.after_substep(t_sub, dt, forces)
+            if population.bodies:
+                population.after_substep(t_sub, dt, {key: f for key, f in forces.items() if key[0] in population})
 
     def _snapshot(self, events: tuple[ContactEvent, ...], changes: tuple[StateChange, ...],
                   dropped: float) -> WorldSnapshot:

@@ -29,12 +29,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--physics-hz", type=float, default=240.0, help="physics rate (default 240)")
     parser.add_argument("--control-hz", type=float, default=0.0,
                         help="controller and AI rate (default: sim.config.WorldConfig's)")
+    parser.add_argument("--people", type=int, default=0,
+                        help="people walking through the crowd, pushing with hands, feet and body (default 0)")
     parser.add_argument("--seed", type=int, default=0)
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     try:
-        return measure(args.characters, args.seconds, args.physics_hz, args.control_hz or None, args.seed)
+        return measure(args.characters, args.seconds, args.physics_hz, args.control_hz or None, args.seed,
+                       args.people)
     except ValueError as e:  # a bad flag: one line, not a traceback
         raise SystemExit(f"jostle bench sim: {e}") from None
 
@@ -53,18 +56,40 @@ def _layout(n: int) -> tuple[float, float, list[tuple[float, float]]]:
     return half_x, half_y, spots
 
 
+def people_at(people: int, t: float, half_x: float, half_y: float) -> tuple[Any, ...]:
+    """``people`` walkers crossing the stage at 1.2 m/s, each a body capsule, two swinging hands and two
+    feet (the contactors an observer reports), spread over its depth; stage metres, seconds."""
+    from interaction.types import Contactor
+
+    out = []
+    for k in range(people):
+        vx = 1.2 if k % 2 == 0 else -1.2
+        x = ((k * 1.7 + vx * t + half_x) % (2.0 * half_x)) - half_x
+        y = -half_y + (k + 0.5) * 2.0 * half_y / people
+        swing, rate = 0.35 * math.sin(2.0 * math.pi * t + k), 0.7 * math.pi * math.cos(2.0 * math.pi * t + k)
+        out.append(Contactor(person=k, part="torso", position=(x, y, 1.1), velocity=(vx, 0.0, 0.0),
+                             radius=0.18, half_depth=0.1))
+        for side, sign in (("left", 1.0), ("right", -1.0)):
+            out.append(Contactor(person=k, part=f"{side}_hand", position=(x + sign * swing, y + 0.25 * sign, 1.0),
+                                 velocity=(vx + sign * rate, 0.0, 0.0), radius=0.06))
+            out.append(Contactor(person=k, part=f"{side}_foot", position=(x - sign * swing, y + 0.12 * sign, 0.08),
+                                 velocity=(vx - sign * rate, 0.0, 0.0), radius=0.07))
+    return tuple(out)
+
+
 def measure(n: int, seconds: float, physics_hz: float = 240.0, control_hz: float | None = None,
-            seed: int = 0) -> dict[str, Any]:
+            seed: int = 0, people: int = 0) -> dict[str, Any]:
     import numpy as np
     import pybullet as p
 
+    from interaction.types import BodyObservation
     from sim.config import CharacterSpec, WorldConfig
     from sim.mitake.body import create_body, create_shape, write_velocities
     from sim.physics import open_client
     from sim.world import World
 
-    if n < 1 or not seconds > 0 or not physics_hz > 0:
-        raise ValueError("bench sim: expected --characters ≥ 1, --seconds > 0 and --physics-hz > 0")
+    if n < 1 or not seconds > 0 or not physics_hz > 0 or people < 0:
+        raise ValueError("bench sim: expected --characters ≥ 1, --seconds > 0, --physics-hz > 0, --people ≥ 0")
     half_x, half_y, spots = _layout(n)
     base = WorldConfig()
     control_dt = 1.0 / control_hz if control_hz else base.control_dt
@@ -100,6 +125,7 @@ def measure(n: int, seconds: float, physics_hz: float = 240.0, control_hz: float
         wall_jostle = 0.0
         physics_before = world.physics_wall_s
         states: dict[str, int] = {}
+        contacts, peak = 0, 0.0
         done = 0
         while done < frames:
             k = min(block, frames - done)
@@ -108,9 +134,13 @@ def measure(n: int, seconds: float, physics_hz: float = 240.0, control_hz: float
                 for _ in range(k * steps_per_frame):
                     step_sim(client)
                 wall[client] += time.perf_counter() - start
+            seen = [BodyObservation(t=t, contactors=people_at(people, t, half_x, half_y), people=people) if people
+                    else None for t in (world.t + i * frame_dt for i in range(k))]  # made outside the timing
             start = time.perf_counter()
-            for _ in range(k):
-                snap = world.step(None, frame_dt)
+            for obs in seen:
+                snap = world.step(obs, frame_dt)
+                contacts += len(snap.contacts)
+                peak = max([peak, *(c.peak_force_n for c in snap.contacts)])
                 for ch in snap.changes:
                     states[ch.after.value] = states.get(ch.after.value, 0) + 1
             wall_jostle += time.perf_counter() - start
@@ -129,6 +159,9 @@ def measure(n: int, seconds: float, physics_hz: float = 240.0, control_hz: float
         physics_us = (world.physics_wall_s - physics_before) / steps * 1e6
         return {
             "characters": n,
+            "people": people,
+            "contacts": contacts,
+            "max_contact_force_n": round(peak, 2),
             "physics_hz": physics_hz,
             "control_hz": round(1.0 / cfg.control_dt, 6),
             "sim_seconds": round(sim_seconds, 6),
