@@ -10,8 +10,8 @@ Nothing is assumed about the file's up axis, units or rest pose: the retarget wo
   turns from its parent by the smallest rotation that points it at its BVH counterpart (no twist about
   the bone, which capsules cannot show anyway; the foot points at the toes).
 
-Joints are found by name (case-insensitive, with or without a ``mixamorig:``-style prefix), with the
-usual CMU, Mixamo and Motion Builder spellings; ``MAPPING`` lists them.
+Joints are found by ``sim.motion.joint_map`` (any common rig by structure and name, or a
+``--joint-map`` file); the retarget needs no units (directions only).
 """
 
 from __future__ import annotations
@@ -23,42 +23,21 @@ import numpy as np
 from render.keyframes.skeletons import HUMANOID_FIGURE, Figure
 from sim.motion import quaternion as quat
 from sim.motion.bvh import BvhMotion, read_bvh
-from sim.motion.mocap import JOINTS, MotionClip, MotionFileError
+from sim.motion.joint_map import JointMap, map_joints
+from sim.motion.mocap import JOINTS, MotionClip
 
-__all__ = ["MAPPING", "BvhMotion", "bvh_to_clip", "read_bvh"]
+__all__ = ["BvhMotion", "bone_ends", "bvh_to_clip", "read_bvh"]
 
-# our bone → (BVH names for where it starts, BVH names for where it points)
-MAPPING: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "chest": (("spine2", "chest2", "chest", "spine1", "upperchest", "spine"), ("neck", "neck1", "head")),
-    "neck": (("neck", "neck1"), ("head",)),
-    "right_hip": (("rightupleg", "rightthigh", "rthigh", "rightupperleg", "rfemur"), ("rightleg", "rightshin", "rshin", "rightlowerleg", "rtibia")),
-    "right_knee": (("rightleg", "rightshin", "rshin", "rightlowerleg", "rtibia"), ("rightfoot", "rfoot")),
-    "right_ankle": (("rightfoot", "rfoot"), ("righttoebase", "righttoe", "rtoes", "righttoes", "rightfoot_end")),
-    "right_shoulder": (("rightarm", "rightupperarm", "rhumerus", "ruparm"), ("rightforearm", "rightlowerarm", "rradius", "rlowarm")),
-    "right_elbow": (("rightforearm", "rightlowerarm", "rradius", "rlowarm"), ("righthand", "rhand", "rwrist", "rightforearm_end")),
-}
-
-
-def _left(name: str) -> str:
-    return name.replace("right", "left") if name.startswith("right") else ("l" + name[1:] if name.startswith("r") else name)
-
-
-MAPPING |= {
-    bone.replace("right", "left"): (tuple(_left(n) for n in a), tuple(_left(n) for n in b))
-    for bone, (a, b) in list(MAPPING.items())
-    if bone.startswith("right")
-}
-HIPS = ("hips", "pelvis", "root", "hip")
-HEAD = ("head", "head_end", "headend", "neck_end")
-
-
-def _find(names: tuple[str, ...], options: tuple[str, ...]) -> int | None:
-    plain = [n.lower().split(":")[-1].replace(" ", "").replace("_", "") for n in names]
-    for o in options:
-        o = o.replace("_", "")
-        if o in plain:
-            return plain.index(o)
-    return None
+def bone_ends(motion: BvhMotion, jm: JointMap) -> dict[str, tuple[int, int]]:
+    """Our bone → (BVH joint where it starts, BVH joint it points at), from the joint map's roles."""
+    r = jm.roles
+    head_tip = next(iter(motion.children(r["head"])), r["head"])
+    ends = {"chest": (r["chest"], r["neck"]), "neck": (r["neck"], r["head"] if r["neck"] != r["head"] else head_tip)}
+    for side in ("left", "right"):
+        for bone, (a, b) in {"hip": ("thigh", "shin"), "knee": ("shin", "foot"), "ankle": ("foot", "toe"),
+                             "shoulder": ("upper_arm", "forearm"), "elbow": ("forearm", "hand")}.items():
+            ends[f"{side}_{bone}"] = (r[f"{side}_{a}"], r[f"{side}_{b}"])
+    return ends
 
 
 def _min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -74,18 +53,13 @@ def _min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return quat.normalize(q)
 
 
-def bvh_to_clip(motion: BvhMotion, figure: Figure = HUMANOID_FIGURE, name: str = "bvh") -> MotionClip:
-    """The motion as a MotionClip of ``figure``'s skeleton (Y up, x forward), by direction retargeting."""
-    def need(options: tuple[str, ...], what: str) -> int:
-        j = _find(motion.names, options)
-        if j is None:
-            raise MotionFileError(f"{name}: no {what} joint (looked for {', '.join(options)}; the file has "
-                                  f"{', '.join(n for n in motion.names if not n.endswith('_end'))})")
-        return j
-
-    hips = need(HIPS, "hips")
-    head = need(HEAD, "head")
-    ends = {bone: (need(a, f"{bone} start"), need(b, f"{bone} end")) for bone, (a, b) in MAPPING.items()}
+def bvh_to_clip(motion: BvhMotion, figure: Figure = HUMANOID_FIGURE, name: str = "bvh",
+                joint_map: JointMap | None = None) -> MotionClip:
+    """The motion as a MotionClip of ``figure``'s skeleton (Y up, x forward), by direction retargeting;
+    joints by ``joint_map`` (default: ``map_joints`` of the file, which raises MotionFileError)."""
+    jm = joint_map or map_joints(motion, source=name)
+    hips, head = jm.roles["hips"], jm.roles["head"]
+    ends = bone_ends(motion, jm)
     p = motion.positions
     rest_up = p[0, head] - p[0, hips]
     to_y = _min_rotation(rest_up / np.linalg.norm(rest_up), np.array([0.0, 1.0, 0.0]))
