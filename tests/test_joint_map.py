@@ -55,6 +55,7 @@ def convert(source: Path, out: Path, convention: str, *, drop_clavicles: bool = 
             text = names[_MAIN.index(plain[len(side):])]
             long, short = ("Left", "l") if side == "L_" else ("Right", "r")
             new[b] = text.format(S=long, s=long.lower(), c=short.upper())
+    new.setdefault(0, "Reference")  # a root above the hips (iClone's RL_BoneRoot) carries the root motion
     keep = sorted(new)
     root = keep[0]
     scale = 0.01 / per_metre_cm  # file cm → the convention's unit
@@ -112,6 +113,9 @@ def test_every_convention_imports_the_same_motion(convention: str, tmp_path: Pat
     # the same bones point the same way: the Euler text round trip costs ~1e-6 degrees
     gap = np.abs(np.abs(np.sum(want.joint_rots * got.joint_rots, axis=-1)) - 1.0)
     assert gap.max() < 1e-8
+    assert np.abs(np.abs(np.sum(want.root_rot * got.root_rot, axis=-1)) - 1.0).max() < 1e-8
+    # the root's path in the file's units (1e-5 m: positions are written to 6 decimals)
+    assert np.allclose(got.root_pos * jm.scale, want.root_pos * 0.01, atol=1e-5)
 
 
 def test_without_clavicles_the_shoulder_is_the_upper_arm(tmp_path: Path) -> None:
@@ -192,3 +196,22 @@ def test_every_shipped_cmu_clip_imports(tmp_path: Path) -> None:
         assert "rig iClone, unit cm (detected)" in said, (clip.name, said)
     assert len(clips) == 37
 
+
+
+def test_a_ragdoll_from_the_asf_release_moves_its_upper_arms(tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """CMU's ASF-style LeftShoulder is the upper arm: it is a driven shoulder, LeftCollar the fixed clavicle."""
+    from jostle.cli.commands import main
+    from sim.articulated.bvh_body import bvh_body
+
+    written = convert(WALK, tmp_path / "asf.bvh", "asf")
+    body = bvh_body(read_bvh(written))
+    kinds = {link.name: (link.kind, link.motion_channel) for link in body.skeleton.links}
+    assert kinds["LeftShoulder"] == ("universal", "left_shoulder") and kinds["LeftCollar"] == ("fixed", "")
+    assert kinds["RightElbow"] == ("hinge", "right_elbow") and kinds["Neck"] == ("ball", "neck")
+    iclone = bvh_body(read_bvh(WALK))  # the 100-joint rig: its twist and finger joints ride along, fixed
+    moving = {link.motion_channel for link in iclone.skeleton.links if link.motion_channel}
+    assert len(moving) == 12 and iclone.scale == 0.01
+    assert main(["ragdoll", "body", str(written), "--height", "1.37"]) == 0
+    out = capsys.readouterr().out
+    assert "rig CMU ASF-style, unit scaled (--height), standing height 1.37 m" in out, out

@@ -173,16 +173,23 @@ def _at(text: str) -> dict[str, float | str]:
     return out
 
 
-def cmd_import(args: argparse.Namespace) -> int:
+def bvh_options(args: argparse.Namespace) -> Any:
+    """The BvhOptions of ``--joint-map``, ``--unit`` and ``--height`` (checked: a height in 0.3-3 m, not both)."""
     from jostle.errors import UsageError
-    from render.keyframes.clip_import import BvhOptions, Placement, import_clip
+    from render.keyframes.clip_import import BvhOptions
     from sim.motion.joint_map import load_joint_map
 
     if args.height is not None and not 0.3 <= args.height <= 3.0:
         raise UsageError(f"--height: expected a standing height in metres (0.3-3), got {args.height}")
     if args.height is not None and args.unit is not None:
         raise UsageError("--height and --unit: give one of them (the height sets the unit)")
-    bvh = BvhOptions(load_joint_map(args.joint_map) if args.joint_map else None, args.unit, args.height)
+    return BvhOptions(load_joint_map(args.joint_map) if args.joint_map else None, args.unit, args.height)
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    from render.keyframes.clip_import import Placement, import_clip
+
+    bvh = bvh_options(args)
     manifest = None
     for f in args.files:
         if f.suffix.lower() in (".gltf", ".glb"):
