@@ -40,7 +40,7 @@ class ArticulatedSpec:
     skeleton: Literal["deepmimic_humanoid"] = "deepmimic_humanoid"
     height: float = 1.65  # m, for drawing / snapshots
     com_height: float = 0.93  # m, centre of mass when standing (drawing: where the figure's com sits)
-    walk_clip: str = "walk"  # pybullet_data clips (sim.motion.mocap.pybullet_motion_path)
+    walk_clip: str = "walk"  # pybullet_data clips by name, or motion files (.bvh, .txt: sim.motion.clips)
     getup_faceup_clip: str = "getup_faceup"
     getup_facedown_clip: str = "getup_facedown"
     # tracking

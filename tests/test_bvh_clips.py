@@ -1,0 +1,63 @@
+"""A BVH file is a clip wherever a clip is asked for (issue J): the virtual performer's --clip and
+--person-clips, a ragdoll's walk_clip, the README's ragdoll example; errors name the key and the file."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jostle.cli.commands import main
+from sim.motion.clips import best_cycle, load_motion
+from sim.motion.mocap import MotionFileError
+
+ROOT = Path(__file__).resolve().parents[1]
+WALK = ROOT / "tests" / "fixtures" / "bvh" / "002_01_excerpt.bvh"  # CMU subject 2 walking, iClone rig
+
+
+def test_a_bvh_walk_is_cut_to_a_loop_that_travels() -> None:
+    clip = load_motion(str(WALK), "clip", cycle=True)
+    assert clip.loop and 0.7 <= clip.duration <= 1.3  # the excerpt holds one 1.1 s stride pair at 10 fps
+    speed = float(np.linalg.norm(clip.cycle_offset)) / clip.duration
+    assert 0.8 < speed < 2.0, speed  # a walk on the 1.6 m humanoid, m/s
+    assert 0.7 < float(clip.root_pos[:, 1].mean()) < 1.1  # the hips above the floor, metres
+    whole = load_motion(str(WALK), "clip")
+    assert not whole.loop and len(whole.times) == 14
+    assert best_cycle(whole).times[0] == 0.0
+
+
+def test_errors_name_the_key_and_the_file(tmp_path: Path) -> None:
+    with pytest.raises(MotionFileError, match=r"^walk_clip: .*nope.bvh: no such BVH file$"):
+        load_motion(str(tmp_path / "nope.bvh"), "walk_clip")
+    with pytest.raises(MotionFileError, match=r"^clip: no pybullet motion clip 'flyy'; known clips: .*walk"):
+        load_motion("flyy", "clip")
+
+
+def test_the_performer_walks_a_bvh(tmp_path: Path) -> None:
+    out = tmp_path / "p.mcap"
+    assert main(["synth", "performer", "--clip", str(WALK), "--duration", "1", "--size", "160x120",
+                 "--out", str(out)]) == 0
+    assert out.stat().st_size > 0
+    assert main(["synth", "performer", "--clip", str(tmp_path / "gone.bvh"), "--duration", "1",
+                 "--out", str(tmp_path / "q.mcap")]) == 2
+
+
+def test_a_ragdoll_walks_a_bvh_from_its_spec_and_the_readme_example_runs(tmp_path: Path,
+                                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    configs = tmp_path / "configs"
+    shutil.copytree(ROOT / "configs", configs, ignore=shutil.ignore_patterns("keyframes"))
+    (configs / "keyframes").symlink_to(ROOT / "configs" / "keyframes")
+    spec = configs / "characters" / "ragdoll.toml"
+    shutil.copy(WALK, configs / "characters" / "walk.bvh")
+    spec.write_text(spec.read_text(encoding="utf-8").replace('walk_clip = "walk"', 'walk_clip = "walk.bvh"'),
+                    encoding="utf-8")
+    assert main(["ragdoll", "export", str(configs / "ragdoll.toml"), "--seconds", "0.5", "--quiet",
+                 "--out", str(tmp_path / "take.bvh")]) == 0
+    assert (tmp_path / "take_ragdoll.bvh").is_file()
+    (configs / "characters" / "walk.bvh").unlink()
+    assert main(["ragdoll", "export", str(configs / "ragdoll.toml"), "--seconds", "0.5", "--quiet",
+                 "--out", str(tmp_path / "take.bvh")]) == 2
+    err = capsys.readouterr().err
+    assert "ragdoll.toml: walk_clip: " in err and "walk.bvh: no such BVH file" in err, err
