@@ -61,3 +61,20 @@ def test_a_ragdoll_walks_a_bvh_from_its_spec_and_the_readme_example_runs(tmp_pat
                  "--out", str(tmp_path / "take.bvh")]) == 2
     err = capsys.readouterr().err
     assert "ragdoll.toml: walk_clip: " in err and "walk.bvh: no such BVH file" in err, err
+
+
+def test_ragdoll_track_reports_every_figure(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    assert main(["ragdoll", "track", str(WALK), "--seconds", "1", "--push", "1", "--json"]) == 0
+    row = json.loads(capsys.readouterr().out)
+    assert list(row) == ["clip", "seconds", "height_m", "clip_loop_s", "falls", "getups", "tracking_error_deg_mean",
+                         "tracking_error_deg_p95", "realtime_factor", "assist_torque_nm_mean", "assist_torque_nm_max",
+                         "assist_force_n_max"]
+    assert row["clip"] == WALK.name and row["seconds"] == 1.0 and 1.7 < row["height_m"] < 1.9
+    assert 0 <= row["tracking_error_deg_mean"] <= row["tracking_error_deg_p95"] < 90
+    assert 0 <= row["assist_torque_nm_mean"] <= row["assist_torque_nm_max"] <= 150.0 * 1.5 + 1e-6
+    assert main(["ragdoll", "track", str(WALK), "--seconds", "1", "--no-assist", "--json"]) == 0
+    bare = json.loads(capsys.readouterr().out)
+    assert bare["assist_torque_nm_max"] == bare["assist_force_n_max"] == 0.0
+    assert main(["ragdoll", "track", "walk", "--seconds", "-1"]) == 2

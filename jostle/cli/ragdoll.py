@@ -74,6 +74,9 @@ def add(sub: Any) -> None:
                    help="the file's length unit (default: detected from the standing height)")
     b.add_argument("--height", type=float, default=None, metavar="M", help="the standing height in metres")
     b.set_defaults(func=cmd_body)
+    from jostle.cli import ragdoll_track
+
+    ragdoll_track.add(rs, RAW)
 
 
 def _fail(message: str) -> Exception:

@@ -133,6 +133,7 @@ class ArticulatedCharacter(WalkingBalance):
         self._heading = heading
         self.external_assist_peak_n = 0.0
         self.external_assist_peak_nm = 0.0
+        self.external_assist_nm = 0.0  # the root assist torque of the last control tick, N·m
         self.falls = 0
         self.getups = 0
         self.last_push_force_n = 0.0
