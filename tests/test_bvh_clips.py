@@ -78,3 +78,12 @@ def test_ragdoll_track_reports_every_figure(capsys: pytest.CaptureFixture[str]) 
     bare = json.loads(capsys.readouterr().out)
     assert bare["assist_torque_nm_max"] == bare["assist_force_n_max"] == 0.0
     assert main(["ragdoll", "track", "walk", "--seconds", "-1"]) == 2
+
+
+def test_bench_ragdoll_takes_a_bvh_clip(tmp_path: Path) -> None:
+    from jostle.cli.bench import main_json
+
+    figures = main_json("ragdoll", ["--quick", "--clip", str(WALK)])
+    assert figures["tracking_error_deg"] is not None and 0 < float(str(figures["tracking_error_deg"])) < 90
+    with pytest.raises(MotionFileError, match=r"^--clip: .*gone.bvh: no such BVH file$"):
+        main_json("ragdoll", ["--quick", "--clip", str(tmp_path / "gone.bvh")])
