@@ -250,6 +250,15 @@ def _with_clip_files(spec: ArticulatedSpec, source: Path) -> ArticulatedSpec:
         except MotionFileError as e:
             raise ConfigError(f"{source}: {e}") from None
         resolved[key] = path
+    if spec.skeleton != "deepmimic_humanoid":  # a BVH file: its body is built when the world starts
+        path = str(Path(spec.skeleton) if Path(spec.skeleton).is_absolute() else source.parent / spec.skeleton)
+        try:
+            from sim.articulated.bvh_body import bvh_character
+
+            bvh_character(path)
+        except MotionFileError as e:
+            raise ConfigError(f"{source}: {e}") from None
+        resolved["skeleton"] = path
     return replace(spec, **resolved)
 
 

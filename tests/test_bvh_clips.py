@@ -68,7 +68,7 @@ def test_ragdoll_track_reports_every_figure(capsys: pytest.CaptureFixture[str]) 
 
     assert main(["ragdoll", "track", str(WALK), "--seconds", "1", "--push", "1", "--json"]) == 0
     row = json.loads(capsys.readouterr().out)
-    assert list(row) == ["clip", "seconds", "height_m", "clip_loop_s", "falls", "getups", "tracking_error_deg_mean",
+    assert list(row) == ["clip", "body", "seconds", "height_m", "clip_loop_s", "falls", "getups", "tracking_error_deg_mean",
                          "tracking_error_deg_p95", "realtime_factor", "assist_torque_nm_mean", "assist_torque_nm_max",
                          "assist_force_n_max"]
     assert row["clip"] == WALK.name and row["seconds"] == 1.0 and 1.7 < row["height_m"] < 1.9
@@ -87,3 +87,24 @@ def test_bench_ragdoll_takes_a_bvh_clip(tmp_path: Path) -> None:
     assert figures["tracking_error_deg"] is not None and 0 < float(str(figures["tracking_error_deg"])) < 90
     with pytest.raises(MotionFileError, match=r"^--clip: .*gone.bvh: no such BVH file$"):
         main_json("ragdoll", ["--quick", "--clip", str(tmp_path / "gone.bvh")])
+
+
+def test_a_ragdoll_spec_takes_a_bvh_skeleton(tmp_path: Path) -> None:
+    """skeleton = "FILE.bvh": the file's own body walks its own motion (the CMU ASF-style rig here)."""
+    from test_joint_map import convert
+
+    from sim.articulated.spec import ArticulatedSpec
+
+    configs = tmp_path / "configs"
+    shutil.copytree(ROOT / "configs", configs, ignore=shutil.ignore_patterns("keyframes"))
+    (configs / "keyframes").symlink_to(ROOT / "configs" / "keyframes")
+    convert(WALK, configs / "characters" / "asf.bvh", "asf")
+    spec = configs / "characters" / "ragdoll.toml"
+    spec.write_text(spec.read_text(encoding="utf-8").replace('skeleton = "deepmimic_humanoid"', 'skeleton = "asf.bvh"'),
+                    encoding="utf-8")
+    assert main(["ragdoll", "export", str(configs / "ragdoll.toml"), "--seconds", "0.3", "--quiet",
+                 "--out", str(tmp_path / "take.bvh")]) == 0
+    names = (tmp_path / "take_ragdoll.bvh").read_text(encoding="utf-8")
+    assert "JOINT left_shoulder" in names and "JOINT LeftCollar" in names  # ASF's upper arm drives, collar rides
+    with pytest.raises(ValueError, match=r"skeleton: expected \"deepmimic_humanoid\" or a .bvh file, got 'x.fbx'"):
+        ArticulatedSpec(skeleton="x.fbx")

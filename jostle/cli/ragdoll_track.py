@@ -40,6 +40,9 @@ def add(rs: Any, raw: type[argparse.HelpFormatter]) -> None:
     t.add_argument("--seconds", type=float, default=20.0, metavar="S", help="simulated seconds (default 20)")
     t.add_argument("--push", type=int, default=0, metavar="N", help="push the character N times (default 0)")
     t.add_argument("--no-assist", action="store_true", help="no root assist at all (torque, force, get-up help)")
+    t.add_argument("--body", choices=("humanoid", "bvh"), default="humanoid",
+                   help="humanoid: the DeepMimic humanoid tracks the retargeted clip (default); bvh: the BVH "
+                        "file's own body (every joint a link, sim.articulated.bvh_body) tracks its own motion")
     t.add_argument("--json", action="store_true", help="print the figures as JSON")
     t.set_defaults(func=cmd_track)
 
@@ -51,7 +54,9 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise UsageError(f"--seconds: expected 0 < S <= 3600, got {args.seconds}")
     if not 0 <= args.push <= 1000:
         raise UsageError(f"--push: expected 0..1000 pushes, got {args.push}")
-    row = track(args.clip, args.seconds, args.push, not args.no_assist)
+    if args.body == "bvh" and not args.clip.lower().endswith(".bvh"):
+        raise UsageError(f"--body bvh: expected a .bvh CLIP, got {args.clip!r}")
+    row = track(args.clip, args.seconds, args.push, not args.no_assist, args.body)
     if args.json:
         print(json.dumps(row, indent=2))
     else:
@@ -59,8 +64,8 @@ def cmd_track(args: argparse.Namespace) -> int:
     return 0
 
 
-def track(clip_ref: str, seconds: float, pushes: int, assist: bool) -> dict[str, Any]:
-    """The figures of the module docstring for one run (see there)."""
+def track(clip_ref: str, seconds: float, pushes: int, assist: bool, body: str = "humanoid") -> dict[str, Any]:
+    """The figures of the module docstring for one run (see there); ``body``: see ``--body``."""
     from jostle.bench.ragdoll_baseline import BenchSim
     from jostle.bench.ragdoll_walk import run_steps
     from sim.articulated.character import ArticulatedCharacter
@@ -68,7 +73,12 @@ def track(clip_ref: str, seconds: float, pushes: int, assist: bool) -> dict[str,
     from sim.articulated.spec import ArticulatedSpec
     from sim.motion.clips import is_motion_file, load_motion
 
-    clip = load_motion(clip_ref, "CLIP", cycle=True)
+    if body == "bvh":
+        from sim.articulated.bvh_body import bvh_character
+
+        skeleton, clip = bvh_character(clip_ref)
+    else:
+        skeleton, clip = deepmimic_humanoid(), load_motion(clip_ref, "CLIP", cycle=True)
     height = _source_height(clip_ref) if is_motion_file(clip_ref) and clip_ref.lower().endswith(".bvh") else 1.65
     spec = ArticulatedSpec()
     if not assist:
@@ -76,7 +86,7 @@ def track(clip_ref: str, seconds: float, pushes: int, assist: bool) -> dict[str,
         spec = dataclasses.replace(spec, **zero)
     sim = BenchSim.open()
     try:
-        char = ArticulatedCharacter(sim.client, deepmimic_humanoid(), spec, clip, (0.0, 0.0), 0.0)
+        char = ArticulatedCharacter(sim.client, skeleton, spec, clip, (0.0, 0.0), 0.0)
         steps = round(seconds / sim.dt)
         every = max(1, round(1.0 / 30.0 / sim.dt))
         push_at = {round(steps * (k + 1) / (pushes + 1)): k for k in range(pushes)}
@@ -89,7 +99,7 @@ def track(clip_ref: str, seconds: float, pushes: int, assist: bool) -> dict[str,
             nonlocal falls, getups
             if s in push_at:
                 side = 1.0 if push_at[s] % 2 == 0 else -1.0
-                char.push("root", (0.0, side * PUSH_N, 0.0), PUSH_S)
+                char.push(0, (0.0, side * PUSH_N, 0.0), PUSH_S)  # link 0: the pelvis
             now = str(char.state)
             if now != states[-1]:
                 falls += now == "fall"
@@ -105,7 +115,7 @@ def track(clip_ref: str, seconds: float, pushes: int, assist: bool) -> dict[str,
         wall = time.perf_counter() - wall
         err = np.asarray(errors) if errors else np.array([math.nan])
         return {
-            "clip": Path(clip_ref).name, "seconds": round(steps * sim.dt, 3), "height_m": round(height, 3),
+            "clip": Path(clip_ref).name, "body": body, "seconds": round(steps * sim.dt, 3), "height_m": round(height, 3),
             "clip_loop_s": round(clip.duration, 3), "falls": falls, "getups": getups,
             "tracking_error_deg_mean": round(float(np.mean(err)), 2),
             "tracking_error_deg_p95": round(float(np.percentile(err, 95)), 2),

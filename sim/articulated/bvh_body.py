@@ -25,6 +25,7 @@ import dataclasses
 import math
 import re
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -35,7 +36,7 @@ from sim.motion.bvh import BvhMotion
 from sim.motion.joint_map import JointMap, map_joints, words
 from sim.motion.mocap import JOINTS, MotionClip, MotionFileError
 
-__all__ = ["BvhBody", "SEED_MASSES_KG", "bvh_body", "body_part"]
+__all__ = ["BvhBody", "SEED_MASSES_KG", "bvh_body", "bvh_character", "body_part"]
 
 # the seed's table 4.1 (kg, for 70 kg), plus hands and toes, which it does not list
 SEED_MASSES_KG: dict[str, float] = {
@@ -225,6 +226,20 @@ def bvh_body(motion: BvhMotion, *, total_mass: float = 70.0, name: str = "bvh", 
     skeleton = ArticulatedSkeleton(name, tuple(links), up_axis="y")
     clip = _clip(motion, joints, channel_of, to_c, scale, name, loop)
     return BvhBody(skeleton, clip, scale, to_c, tuple(joints), tuple(parts[b] for b in joints))
+
+
+def bvh_character(path: str, total_mass: float = 45.0) -> tuple[ArticulatedSkeleton, MotionClip]:
+    """A ragdoll spec's ``skeleton = "FILE.bvh"``: the file's own body (moving links named after their
+    channels, ``total_mass`` kg like the DeepMimic humanoid's 45) and its motion cut to its best loop."""
+    from sim.motion.bvh import read_bvh
+    from sim.motion.clips import best_cycle
+
+    try:
+        body = bvh_body(read_bvh(path), total_mass=total_mass, name=Path(path).stem, loop=True,
+                        link_names="channels")
+    except MotionFileError as e:
+        raise MotionFileError(f"skeleton: {e}") from None
+    return body.skeleton, best_cycle(body.clip)
 
 
 def _part_masses(joints: list[int], kids: dict[int, list[int]], parts: dict[int, str],
