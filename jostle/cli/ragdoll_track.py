@@ -3,11 +3,12 @@ help from outside its joints it took.
 
 The character is the DeepMimic humanoid (``configs/characters/ragdoll.toml``'s body and controller,
 ``sim.articulated``) tracking CLIP: a pybullet clip name, or a file (a BVH of any common rig,
-retargeted, cut to its best loop and looped: ``sim.motion.clips``). It runs ``--seconds`` of simulated
+retargeted, cut to its best loop and looped: ``sim.motion.clips``), or with ``--body bvh`` the BVH's
+own body tracking its own motion (``sim.articulated.bvh_body.bvh_character``). It runs ``--seconds`` of simulated
 time on the world's physics step; ``--push N`` pushes its root N times (150 N for 0.2 s, sideways,
 alternating, evenly spaced); ``--no-assist`` sets every root assist of the spec to 0. Reported:
 falls (entries into the fall state), get-ups (stand-ups that end walking), the tracking error (degrees,
-sampled at 30 Hz while walking or staggering: mean and 95th percentile), the realtime factor
+sampled at 30 Hz while walking or staggering: mean and 95th percentile; null if it never walked), the realtime factor
 (simulated ÷ wall seconds), and the root assist: walking torque mean and peak, peak force (any state).
 """
 
@@ -113,12 +114,12 @@ def track(clip_ref: str, seconds: float, pushes: int, assist: bool, body: str = 
         wall = time.perf_counter()
         run_steps(sim, [char], steps, each)
         wall = time.perf_counter() - wall
-        err = np.asarray(errors) if errors else np.array([math.nan])
+        err = np.asarray(errors) if errors else None  # None: never walking (JSON has no NaN)
         return {
             "clip": Path(clip_ref).name, "body": body, "seconds": round(steps * sim.dt, 3), "height_m": round(height, 3),
             "clip_loop_s": round(clip.duration, 3), "falls": falls, "getups": getups,
-            "tracking_error_deg_mean": round(float(np.mean(err)), 2),
-            "tracking_error_deg_p95": round(float(np.percentile(err, 95)), 2),
+            "tracking_error_deg_mean": None if err is None else round(float(np.mean(err)), 2),
+            "tracking_error_deg_p95": None if err is None else round(float(np.percentile(err, 95)), 2),
             "realtime_factor": round(steps * sim.dt / max(wall, 1e-9), 2),
             "assist_torque_nm_mean": round(float(np.mean(torques)) if torques else 0.0, 1),
             "assist_torque_nm_max": round(float(char.external_assist_peak_nm), 1),
