@@ -108,3 +108,17 @@ def test_a_ragdoll_spec_takes_a_bvh_skeleton(tmp_path: Path) -> None:
     assert "JOINT left_shoulder" in names and "JOINT LeftCollar" in names  # ASF's upper arm drives, collar rides
     with pytest.raises(ValueError, match=r"skeleton: expected \"deepmimic_humanoid\" or a .bvh file, got 'x.fbx'"):
         ArticulatedSpec(skeleton="x.fbx")
+
+
+def test_a_joint_map_beside_the_file_serves_every_command(tmp_path: Path) -> None:
+    """A Rigify take (its head is a spine bone) works as a performer's clip once take.joints.toml is beside it."""
+    from test_joint_map import convert
+
+    take = convert(WALK, tmp_path / "take.bvh", "rigify")
+    with pytest.raises(MotionFileError, match=r"^clip: .*take.bvh: cannot map the joints \(head: no joint named "
+                       r"head\).*FILE.joints.toml beside the BVH"):
+        load_motion(str(take), "clip", cycle=True)
+    shutil.copy(ROOT / "configs" / "joint_maps" / "rigify.toml", tmp_path / "take.joints.toml")
+    assert load_motion(str(take), "clip", cycle=True).loop
+    assert main(["synth", "performer", "--clip", str(take), "--duration", "1", "--size", "160x120",
+                 "--out", str(tmp_path / "p.mcap")]) == 0

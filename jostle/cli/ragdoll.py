@@ -172,13 +172,14 @@ def cmd_body(args: argparse.Namespace) -> int:
     from jostle.cli.keyframes import bvh_options
     from sim.articulated.bvh_body import bvh_body
     from sim.motion.bvh import read_bvh
-    from sim.motion.joint_map import map_joints
+    from sim.motion.joint_map import beside, map_joints
 
     if not (math.isfinite(args.mass) and args.mass > 0):
         raise _fail(f"--mass: expected a number > 0, got {args.mass}")
     o = bvh_options(args)
     motion = read_bvh(args.bvh)
-    jm = map_joints(motion, o.joints, unit=o.unit, height=o.height, source=str(args.bvh))
+    joints = o.joints if o.joints is not None else beside(Path(args.bvh))
+    jm = map_joints(motion, joints, unit=o.unit, height=o.height, source=str(args.bvh))
     body = bvh_body(motion, total_mass=args.mass, name=Path(args.bvh).stem, joint_map=jm)
     sk = body.skeleton
     if args.json:

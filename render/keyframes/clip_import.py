@@ -61,11 +61,12 @@ def load_clip(path: Path, figure: Figure, bvh: BvhOptions | None = None) -> tupl
     what was recognised (for a BVH: the rig, unit and standing height; "" for DeepMimic)."""
     if path.suffix.lower() == ".bvh":
         from render.keyframes.bvh import bvh_to_clip, read_bvh
-        from sim.motion.joint_map import map_joints
+        from sim.motion.joint_map import beside, map_joints
 
         o = bvh or BvhOptions()
         motion = read_bvh(path)
-        jm = map_joints(motion, o.joints, unit=o.unit, height=o.height, source=str(path))
+        joints = o.joints if o.joints is not None else beside(path)
+        jm = map_joints(motion, joints, unit=o.unit, height=o.height, source=str(path))
         return bvh_to_clip(motion, figure, path.stem, jm), jm.describe()
     return MotionClip.load(path), ""
 

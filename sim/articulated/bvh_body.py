@@ -33,7 +33,7 @@ import numpy as np
 from sim.articulated.skeleton import HUMANOID_JOINTS, ArticulatedLink, ArticulatedSkeleton, JointKind
 from sim.motion import quaternion as quat
 from sim.motion.bvh import BvhMotion
-from sim.motion.joint_map import JointMap, map_joints, words
+from sim.motion.joint_map import JointMap, beside, map_joints, words
 from sim.motion.mocap import JOINTS, MotionClip, MotionFileError
 
 __all__ = ["BvhBody", "SEED_MASSES_KG", "bvh_body", "bvh_character", "body_part"]
@@ -235,8 +235,10 @@ def bvh_character(path: str, total_mass: float = 45.0) -> tuple[ArticulatedSkele
     from sim.motion.clips import best_cycle
 
     try:
-        body = bvh_body(read_bvh(path), total_mass=total_mass, name=Path(path).stem, loop=True,
-                        link_names="channels")
+        motion = read_bvh(path)
+        jm = map_joints(motion, beside(Path(path)), source=path)
+        body = bvh_body(motion, total_mass=total_mass, name=Path(path).stem, loop=True, link_names="channels",
+                        joint_map=jm)
     except MotionFileError as e:
         raise MotionFileError(f"skeleton: {e}") from None
     return body.skeleton, best_cycle(body.clip)

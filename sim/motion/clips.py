@@ -36,11 +36,11 @@ def load_motion(ref: str, key: str, base: Path | None = None, *, cycle: bool = F
         if path.suffix.lower() != ".bvh":
             return MotionClip.load(path)
         from sim.motion.bvh import read_bvh  # the BVH parts load only for a BVH file
-        from sim.motion.joint_map import map_joints
+        from sim.motion.joint_map import beside, map_joints
         from sim.motion.retarget import retarget
 
         motion = read_bvh(path)
-        jm = map_joints(motion, source=str(path))
+        jm = map_joints(motion, beside(path), source=str(path))
         clip = retarget(motion, name=path.stem, joint_map=jm)
         clip = replace(clip, root_pos=clip.root_pos * _leg_ratio(motion, jm.roles))
         return best_cycle(clip) if cycle else clip

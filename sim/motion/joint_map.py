@@ -8,7 +8,7 @@ that side; the shin and thigh; the hips where the two legs meet, the chest where
 head by name. So CMU ASF-style ``LeftShoulder`` (the upper arm, under ``LeftCollar``) and Mixamo's
 ``LeftShoulder`` (the clavicle, above ``LeftArm``) both land right; an upper arm whose name says
 clavicle/collar, or a clavicle named arm, is refused as ambiguous. ``explicit`` (from ``--joint-map``
-TOML, ``load_joint_map``) pins any roles by name. Every missing or ambiguous role is listed in one
+TOML or ``FILE.joints.toml`` beside the file: ``load_joint_map``, ``beside``) pins any roles by name. Every missing or ambiguous role is listed in one
 ``MotionFileError``. Units: ``unit`` (m, cm, in, mm), ``height`` in metres, else detected from the
 standing height (the head joint's height above the lower sole, along hips → head, in the 90th
 percentile of frames, ÷ ``HEAD_SHARE``; 1.0–2.5 m in one of the units); ``describe()`` says what was used.
@@ -27,7 +27,7 @@ from sensors.untrusted.limits import CONFIG_TOML  # a joint map is a small confi
 from sim.motion.bvh import BvhMotion
 from sim.motion.mocap import MotionFileError
 
-__all__ = ["ROLES", "UNITS", "JointMap", "load_joint_map", "map_joints", "words"]
+__all__ = ["ROLES", "UNITS", "JointMap", "beside", "load_joint_map", "map_joints", "words"]
 
 _SIDED = ("clavicle", "upper_arm", "forearm", "hand", "thigh", "shin", "foot", "toe")
 ROLES: tuple[str, ...] = ("hips", "chest", "neck", "head") + tuple(
@@ -97,6 +97,13 @@ def load_joint_map(path: Path) -> dict[str, str]:
     if not_text:
         raise MotionFileError(f"{path}: joints.{not_text[0]}: expected a joint name in quotes")
     return {str(k): str(v) for k, v in table.items()}
+
+
+def beside(bvh: Path) -> dict[str, str] | None:
+    """The joint map of ``FILE.joints.toml`` beside ``FILE.bvh`` when there is one (used wherever a BVH is
+    read without a ``--joint-map`` flag: clips, ragdoll skeletons), else None."""
+    path = bvh.with_suffix(".joints.toml")
+    return load_joint_map(path) if path.is_file() else None
 
 
 def map_joints(motion: BvhMotion, explicit: dict[str, str] | None = None, *, unit: str | None = None,
@@ -182,7 +189,8 @@ def map_joints(motion: BvhMotion, explicit: dict[str, str] | None = None, *, uni
     if problems:
         have = ", ".join(n for n in names if not n.endswith("_end"))
         raise MotionFileError(f"{source}: cannot map the joints ({'; '.join(problems)}); the file has {shorten(have, 600)}"
-                              "; name them in a --joint-map TOML file (see configs/joint_maps/README.md)")
+                              "; name them in a joint map: --joint-map MAP.toml, or FILE.joints.toml beside the BVH "
+                              "(configs/joint_maps/README.md)")
     scale, unit_name, how, h = _units(motion, rest, roles, unit, height, source)
     return JointMap(roles, _rig(names), unit_name, scale, h, how)
 
