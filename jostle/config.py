@@ -214,7 +214,8 @@ def load_config(path: str | Path) -> JostleConfig:
         spec_doc = load_toml(group.spec, CHARACTER_SPEC, "character spec")
         spec: CharacterSpec | ArticulatedSpec
         if spec_doc.get("body") == "articulated":
-            spec = build(ArticulatedSpec, spec_doc, source=str(group.spec), key="", base_dir=group.spec.parent)
+            spec = _with_clip_files(build(ArticulatedSpec, spec_doc, source=str(group.spec), key="",
+                                          base_dir=group.spec.parent), group.spec)
         else:
             spec = build(CharacterSpec, spec_doc, source=str(group.spec), key="", base_dir=group.spec.parent)
         groups.append(CharacterGroup(spec, group.count, group.intent, group.spec,
@@ -228,6 +229,37 @@ def load_config(path: str | Path) -> JostleConfig:
     return JostleConfig(path, run, tuple(sensors), tuple(observers), world, tuple(groups), render, doc,
                         kiosk=kiosk, health=health, record=record, terrain=terrain,
                         quadrupeds=quadrupeds)
+
+
+def _with_clip_files(spec: ArticulatedSpec, source: Path) -> ArticulatedSpec:
+    """Clip keys that name files (a BVH, DeepMimic JSON) made relative to the spec file and loaded once
+    here, so a bad file is a config error naming the spec file, the key and the clip file."""
+    from dataclasses import replace
+
+    from sim.motion.clips import is_motion_file, load_motion
+    from sim.motion.mocap import MotionFileError
+
+    resolved: dict[str, Any] = {}
+    for key in ("walk_clip", "getup_faceup_clip", "getup_facedown_clip"):
+        ref = getattr(spec, key)
+        if not is_motion_file(ref):
+            continue
+        path = str(Path(ref) if Path(ref).is_absolute() else source.parent / ref)
+        try:
+            load_motion(path, key, cycle=key == "walk_clip")
+        except MotionFileError as e:
+            raise ConfigError(f"{source}: {e}") from None
+        resolved[key] = path
+    if spec.skeleton != "deepmimic_humanoid":  # a BVH file: its body is built when the world starts
+        path = str(Path(spec.skeleton) if Path(spec.skeleton).is_absolute() else source.parent / spec.skeleton)
+        try:
+            from sim.articulated.bvh_body import bvh_character
+
+            bvh_character(path)
+        except MotionFileError as e:
+            raise ConfigError(f"{source}: {e}") from None
+        resolved["skeleton"] = path
+    return replace(spec, **resolved)
 
 
 @dataclass(frozen=True)

@@ -269,7 +269,8 @@ def test_bvh_is_read_and_retargeted_by_bone_directions(tmp_path: Path) -> None:
             cos = np.dot(d_want, d_have) / np.linalg.norm(d_want) / np.linalg.norm(d_have)
             assert cos > math.cos(math.radians(1.0)), (f, HUMANOID.names[b])
     placement = Placement("walk", "walk", "dz", {"theta_x": 0.0, "theta_z": 0.0, "dx": "any"})
-    manifest = import_clip(tmp_path / "walk.bvh", tmp_path / "set", placement, keys=6)
+    manifest, recognised = import_clip(tmp_path / "walk.bvh", tmp_path / "set", placement, keys=6)
+    assert "unit cm (detected)" in recognised
     assert len(KeyframeSet.load(manifest).key_names) == 6
 
 

@@ -46,6 +46,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--recovery-substeps", type=int, default=None, metavar="N",
                         help="physics steps per step while a character recovers (default: the character's, 8, "
                              "which holds the joint limits; 1: never finer; sim.articulated.recovery)")
+    parser.add_argument("--clip", default=None, metavar="CLIP",
+                        help="the walk the characters track: a pybullet clip name or a file (.bvh of any common "
+                             "rig, cut to its best loop; .txt) (default: walk; the stable-PD baseline keeps walk)")
     parser.add_argument("--quick", action="store_true",
                         help="tiny settings for tests: 1 character, 0.5 s, 1 phase, one 600 N push")
 
@@ -70,11 +73,18 @@ def _settings(args: argparse.Namespace) -> argparse.Namespace:
 
 
 def character_spec(args: argparse.Namespace) -> Any:
-    """The characters' spec: the default one, with ``--recovery-substeps`` when given."""
+    """The characters' spec: the default one, with ``--recovery-substeps`` and ``--clip`` when given."""
     from sim.articulated.spec import ArticulatedSpec
+    from sim.motion.clips import load_motion
 
+    given: dict[str, Any] = {}
+    if getattr(args, "clip", None):
+        load_motion(args.clip, "--clip", cycle=True)  # a MotionFileError naming the flag and the file
+        given["walk_clip"] = args.clip
     try:
-        return ArticulatedSpec(**({} if args.recovery_substeps is None else {"recovery_substeps": args.recovery_substeps}))
+        if args.recovery_substeps is not None:
+            given["recovery_substeps"] = args.recovery_substeps
+        return ArticulatedSpec(**given)
     except ValueError as e:  # "recovery_substeps: expected …" said as the flag
         raise ValueError("--" + str(e).replace("recovery_substeps", "recovery-substeps", 1)) from None
 

@@ -88,6 +88,12 @@ def add(sub: Any) -> None:
     i.add_argument("--coords", default=None, metavar="X,…", help="each key's coordinate along --axis")
     i.add_argument("--range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                    help="coordinates of the first and last key along a theta axis")
+    i.add_argument("--joint-map", type=Path, default=None, metavar="FILE.toml",
+                   help="BVH: name the joints of a rig that is not recognised (configs/joint_maps/README.md)")
+    i.add_argument("--unit", choices=("m", "cm", "in", "mm"), default=None,
+                   help="BVH: the file's length unit (default: detected from the standing height)")
+    i.add_argument("--height", type=float, default=None, metavar="M",
+                   help="BVH: the standing height in metres (instead of --unit)")
     i.set_defaults(func=cmd_import)
 
     e = ks.add_parser(
@@ -167,9 +173,23 @@ def _at(text: str) -> dict[str, float | str]:
     return out
 
 
+def bvh_options(args: argparse.Namespace) -> Any:
+    """The BvhOptions of ``--joint-map``, ``--unit`` and ``--height`` (checked: a height in 0.3-3 m, not both)."""
+    from jostle.errors import UsageError
+    from render.keyframes.clip_import import BvhOptions
+    from sim.motion.joint_map import load_joint_map
+
+    if args.height is not None and not 0.3 <= args.height <= 3.0:
+        raise UsageError(f"--height: expected a standing height in metres (0.3-3), got {args.height}")
+    if args.height is not None and args.unit is not None:
+        raise UsageError("--height and --unit: give one of them (the height sets the unit)")
+    return BvhOptions(load_joint_map(args.joint_map) if args.joint_map else None, args.unit, args.height)
+
+
 def cmd_import(args: argparse.Namespace) -> int:
     from render.keyframes.clip_import import Placement, import_clip
 
+    bvh = bvh_options(args)
     manifest = None
     for f in args.files:
         if f.suffix.lower() in (".gltf", ".glb"):
@@ -179,10 +199,12 @@ def cmd_import(args: argparse.Namespace) -> int:
         else:
             placement = Placement(args.name or f.stem, args.behaviour, args.axis, _at(args.at), args.family)
             frames = _floats(args.frames, "frames")
-            manifest = import_clip(
+            manifest, recognised = import_clip(
                 f, args.into, placement, keys=args.keys, frames=[int(x) for x in frames] if frames else None,
-                coords=_floats(args.coords, "coords"), span=tuple(args.range) if args.range else None,
+                coords=_floats(args.coords, "coords"), span=tuple(args.range) if args.range else None, bvh=bvh,
             )
+            if recognised:
+                print(f"jostle: {f}: {recognised}", file=sys.stderr)
         print(f"jostle: imported {f} into {manifest}", file=sys.stderr)
     return 0
 

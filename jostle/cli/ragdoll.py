@@ -68,7 +68,15 @@ def add(sub: Any) -> None:
     b.add_argument("bvh", type=Path, metavar="FILE.bvh")
     b.add_argument("--mass", type=float, default=70.0, metavar="KG", help="total mass (default 70 kg)")
     b.add_argument("--json", action="store_true", help="print the links as JSON")
+    b.add_argument("--joint-map", type=Path, default=None, metavar="FILE.toml",
+                   help="name the joints of a rig that is not recognised (configs/joint_maps/README.md)")
+    b.add_argument("--unit", choices=("m", "cm", "in", "mm"), default=None,
+                   help="the file's length unit (default: detected from the standing height)")
+    b.add_argument("--height", type=float, default=None, metavar="M", help="the standing height in metres")
     b.set_defaults(func=cmd_body)
+    from jostle.cli import ragdoll_track
+
+    ragdoll_track.add(rs, RAW)
 
 
 def _fail(message: str) -> Exception:
@@ -161,19 +169,25 @@ def cmd_body(args: argparse.Namespace) -> int:
     import json
     import math
 
+    from jostle.cli.keyframes import bvh_options
     from sim.articulated.bvh_body import bvh_body
     from sim.motion.bvh import read_bvh
+    from sim.motion.joint_map import beside, map_joints
 
     if not (math.isfinite(args.mass) and args.mass > 0):
         raise _fail(f"--mass: expected a number > 0, got {args.mass}")
-    body = bvh_body(read_bvh(args.bvh), total_mass=args.mass, name=Path(args.bvh).stem)
+    o = bvh_options(args)
+    motion = read_bvh(args.bvh)
+    joints = o.joints if o.joints is not None else beside(Path(args.bvh))
+    jm = map_joints(motion, joints, unit=o.unit, height=o.height, source=str(args.bvh))
+    body = bvh_body(motion, total_mass=args.mass, name=Path(args.bvh).stem, joint_map=jm)
     sk = body.skeleton
     if args.json:
-        print(json.dumps({"scale_m_per_unit": body.scale, "frames": len(body.clip.times),
-                          "links": [dc.asdict(link) for link in sk.links]}, indent=2))
+        print(json.dumps({"scale_m_per_unit": body.scale, "height_m": jm.height_m, "unit": jm.unit, "rig": jm.rig,
+                          "frames": len(body.clip.times), "links": [dc.asdict(link) for link in sk.links]}, indent=2))
         return 0
-    print(f"{args.bvh}: {len(sk.links)} links, {sk.total_mass:.1f} kg, {len(body.clip.times)} frames, "
-          f"{body.scale:g} m per file unit")
+    print(f"{args.bvh}: {jm.describe()}; {len(sk.links)} links, {sk.total_mass:.1f} kg, {len(body.clip.times)} "
+          f"frames, {body.scale:g} m per file unit")
     for link, part in zip(sk.links, body.parts, strict=True):
         limits = ""
         if link.kind == "hinge":

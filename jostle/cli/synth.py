@@ -42,7 +42,8 @@ def add(sub: Any) -> None:
         "      --person-clips run --sensors oak --depth-size 320x200 --truth --out /tmp/three.mcap",
     )
     perf.add_argument("--clip", action="append", default=None, metavar="NAME",
-                      help="DeepMimic clip from pybullet_data (walk, run, punch, kick, …); repeat to sequence "
+                      help="DeepMimic clip from pybullet_data (walk, run, punch, kick, …) or a file (.bvh of any common "
+                      "rig, DeepMimic .txt/.json; a BVH walk is cut to its best loop); repeat to sequence "
                       "(default: walk)")
     perf.add_argument("--out", type=Path, required=True, metavar="FILE.mcap")
     perf.add_argument("--duration", type=float, default=None, metavar="S", help="seconds of recording")

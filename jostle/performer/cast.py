@@ -49,7 +49,7 @@ class PersonPlan:
     @property
     def speed(self) -> float:
         """Walking speed along the path, m/s."""
-        walk = load_clip(self.clips[0])
+        walk = load_clip(self.clips[0], True)
         return float(np.linalg.norm(walk.cycle_offset)) / walk.duration * self.size * self.rate
 
 
@@ -147,7 +147,7 @@ def build_cast(config: PerformerConfig) -> tuple[Person, ...]:
     """The people of the performance, each with a path to sample poses from."""
     cast = []
     for plan in plan_cast(config):
-        walk = scaled_clip(load_clip(plan.clips[0]), plan.size)
+        walk = scaled_clip(load_clip(plan.clips[0], True), plan.size)
         actions = tuple(scaled_clip(load_clip(c), plan.size) for c in plan.clips[1:])
         path: SegmentPath
         if config.route == "round":

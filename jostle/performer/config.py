@@ -15,16 +15,19 @@ from typing import Literal
 import numpy as np
 
 from jostle.performer.camera import PinholeCamera
-from sim.motion.mocap import MotionClip, MotionFileError, pybullet_motion_path
+from sim.motion.clips import load_motion
+from sim.motion.mocap import MotionClip, MotionFileError
 
 Route = Literal["round", "crossing"]
 MAX_PEOPLE = 4
 
 
 @lru_cache(maxsize=32)
-def load_clip(name: str) -> MotionClip:
-    """A DeepMimic clip shipped with pybullet_data, by name (walk, run, punch, …), cached."""
-    return MotionClip.load(pybullet_motion_path(name))
+def load_clip(name: str, cycle: bool = False) -> MotionClip:
+    """A DeepMimic clip shipped with pybullet_data by name (walk, run, punch, …), or a motion file (a
+    BVH of any common rig, DeepMimic JSON: ``sim.motion.clips``), cached; ``cycle``: the person's walk,
+    a BVH cut to its best loop."""
+    return load_motion(name, "", cycle=cycle)
 
 
 def check_number(name: str, value: object, lo: float, hi: float = math.inf, *, open_lo: bool = False) -> None:
@@ -51,7 +54,7 @@ def check_clip_sequence(name: str, clips: tuple[str, ...]) -> None:
             load_clip(clip)
         except MotionFileError as e:
             raise ValueError(f"{name}: {e}") from None
-    walk = load_clip(clips[0])
+    walk = load_clip(clips[0], True)
     if not walk.loop or float(np.linalg.norm(walk.cycle_offset)) / max(walk.duration, 1e-9) < 0.2:
         raise ValueError(f"{name}: the first clip must loop and travel (walk, run), got {clips[0]!r}")
 

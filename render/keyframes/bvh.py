@@ -1,157 +1,19 @@
-"""BVH motion capture retargeted onto a jostle figure's skeleton (the file is parsed by ``sim.motion.bvh``).
-
-Nothing is assumed about the file's up axis, units or rest pose: the retarget works from joint
-*positions* only —
-
-- the up axis is the rest pose's direction from the hips to the head, the character's right the
-  direction from the left to the right thigh;
-- the pelvis takes the frame spanned by (hips → spine) and (left thigh → right thigh), the chest the
-  frame spanned by (chest → neck) and (left → right shoulder); every other bone
-  turns from its parent by the smallest rotation that points it at its BVH counterpart (no twist about
-  the bone, which capsules cannot show anyway; the foot points at the toes).
-
-Joints are found by name (case-insensitive, with or without a ``mixamorig:``-style prefix), with the
-usual CMU, Mixamo and Motion Builder spellings; ``MAPPING`` lists them.
-"""
+"""BVH motion capture retargeted onto a jostle figure's skeleton (``sim.motion.retarget`` does the work;
+the file is parsed by ``sim.motion.bvh``, its joints found by ``sim.motion.joint_map``)."""
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
-
 from render.keyframes.skeletons import HUMANOID_FIGURE, Figure
-from sim.motion import quaternion as quat
 from sim.motion.bvh import BvhMotion, read_bvh
-from sim.motion.mocap import JOINTS, MotionClip, MotionFileError
+from sim.motion.joint_map import JointMap
+from sim.motion.mocap import MotionClip
+from sim.motion.retarget import bone_ends, retarget
 
-__all__ = ["MAPPING", "BvhMotion", "bvh_to_clip", "read_bvh"]
-
-# our bone → (BVH names for where it starts, BVH names for where it points)
-MAPPING: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "chest": (("spine2", "chest2", "chest", "spine1", "upperchest", "spine"), ("neck", "neck1", "head")),
-    "neck": (("neck", "neck1"), ("head",)),
-    "right_hip": (("rightupleg", "rightthigh", "rthigh", "rightupperleg", "rfemur"), ("rightleg", "rightshin", "rshin", "rightlowerleg", "rtibia")),
-    "right_knee": (("rightleg", "rightshin", "rshin", "rightlowerleg", "rtibia"), ("rightfoot", "rfoot")),
-    "right_ankle": (("rightfoot", "rfoot"), ("righttoebase", "righttoe", "rtoes", "righttoes", "rightfoot_end")),
-    "right_shoulder": (("rightarm", "rightupperarm", "rhumerus", "ruparm"), ("rightforearm", "rightlowerarm", "rradius", "rlowarm")),
-    "right_elbow": (("rightforearm", "rightlowerarm", "rradius", "rlowarm"), ("righthand", "rhand", "rwrist", "rightforearm_end")),
-}
+__all__ = ["BvhMotion", "bone_ends", "bvh_to_clip", "read_bvh"]
 
 
-def _left(name: str) -> str:
-    return name.replace("right", "left") if name.startswith("right") else ("l" + name[1:] if name.startswith("r") else name)
-
-
-MAPPING |= {
-    bone.replace("right", "left"): (tuple(_left(n) for n in a), tuple(_left(n) for n in b))
-    for bone, (a, b) in list(MAPPING.items())
-    if bone.startswith("right")
-}
-HIPS = ("hips", "pelvis", "root", "hip")
-HEAD = ("head", "head_end", "headend", "neck_end")
-
-
-def _find(names: tuple[str, ...], options: tuple[str, ...]) -> int | None:
-    plain = [n.lower().split(":")[-1].replace(" ", "").replace("_", "") for n in names]
-    for o in options:
-        o = o.replace("_", "")
-        if o in plain:
-            return plain.index(o)
-    return None
-
-
-def _min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The smallest rotations (..., 4) taking unit vectors a to unit vectors b."""
-    c = np.cross(a, b)
-    w = 1.0 + np.sum(a * b, axis=-1, keepdims=True)
-    q = np.concatenate([c, w], axis=-1)
-    flip = w[..., 0] < 1e-9  # opposite: any half turn about a perpendicular axis
-    if np.any(flip):
-        perp = np.cross(a, np.array([1.0, 0.0, 0.0]))
-        perp = np.where(np.linalg.norm(perp, axis=-1, keepdims=True) < 1e-6, np.cross(a, [0.0, 1.0, 0.0]), perp)
-        q = np.where(flip[..., None], np.concatenate([perp, np.zeros_like(w)], axis=-1), q)
-    return quat.normalize(q)
-
-
-def bvh_to_clip(motion: BvhMotion, figure: Figure = HUMANOID_FIGURE, name: str = "bvh") -> MotionClip:
-    """The motion as a MotionClip of ``figure``'s skeleton (Y up, x forward), by direction retargeting."""
-    def need(options: tuple[str, ...], what: str) -> int:
-        j = _find(motion.names, options)
-        if j is None:
-            raise MotionFileError(f"{name}: no {what} joint (looked for {', '.join(options)}; the file has "
-                                  f"{', '.join(n for n in motion.names if not n.endswith('_end'))})")
-        return j
-
-    hips = need(HIPS, "hips")
-    head = need(HEAD, "head")
-    ends = {bone: (need(a, f"{bone} start"), need(b, f"{bone} end")) for bone, (a, b) in MAPPING.items()}
-    p = motion.positions
-    rest_up = p[0, head] - p[0, hips]
-    to_y = _min_rotation(rest_up / np.linalg.norm(rest_up), np.array([0.0, 1.0, 0.0]))
-    p = quat.rotate(to_y, p)
-    n = len(p)
-    skel = figure.skeleton
-    world: dict[str, np.ndarray] = {}
-    # pelvis: up along the spine, z to the right thigh; chest: up to the neck, z to the right shoulder
-    world["root"] = _frame(p[:, ends["chest"][0]] - p[:, hips], p[:, ends["right_hip"][0]] - p[:, ends["left_hip"][0]])
-    chest = _frame(p[:, ends["chest"][1]] - p[:, ends["chest"][0]],
-                   p[:, ends["right_shoulder"][0]] - p[:, ends["left_shoulder"][0]])
-    local: dict[str, np.ndarray] = {}
-    for b in range(1, len(skel.names)):
-        bone = skel.names[b]
-        if bone not in JOINTS:
-            continue
-        parent = skel.names[skel.parents[b]]
-        child = next(c for c in range(len(skel.names)) if skel.parents[c] == b)
-        rest_dir = skel.offsets[child] / np.linalg.norm(skel.offsets[child])
-        start, end = ends[bone]
-        target = p[:, end] - p[:, start]
-        target /= np.maximum(np.linalg.norm(target, axis=-1, keepdims=True), 1e-12)
-        current = quat.rotate(world[parent], np.broadcast_to(rest_dir, (n, 3)))
-        world[bone] = quat.normalize(quat.multiply(_min_rotation(current, target), world[parent]))
-        if bone == "chest":
-            world[bone] = chest
-        local[bone] = quat.multiply(quat.conjugate(world[parent]), world[bone])
-    joint_rots = np.stack([local[j] for j in JOINTS], axis=1)
-    for i in range(1, n):
-        joint_rots[i] = quat.align(joint_rots[i], joint_rots[i - 1])
-    frame_time = motion.frame_time if motion.frame_time > 0 and math.isfinite(motion.frame_time) else 1 / 30
-    return MotionClip(name, False, np.arange(n) * frame_time, p[:, hips], world["root"], joint_rots)
-
-
-def _frame(up: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """Rotations (N, 4) whose y axis is ``up`` and whose z axis is ``right`` made square to it."""
-    y = up / np.linalg.norm(up, axis=-1, keepdims=True)
-    z = right - np.sum(right * y, axis=-1, keepdims=True) * y
-    z /= np.linalg.norm(z, axis=-1, keepdims=True)
-    return _matrix_to_quat(np.stack([np.cross(y, z), y, z], axis=-1))
-
-
-def _matrix_to_quat(m: np.ndarray) -> np.ndarray:
-    """Unit quaternions (..., 4) x y z w from rotation matrices (..., 3, 3) (Shepperd's method)."""
-    t = m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2]
-    q = np.stack([
-        1 + m[..., 0, 0] - m[..., 1, 1] - m[..., 2, 2],
-        1 - m[..., 0, 0] + m[..., 1, 1] - m[..., 2, 2],
-        1 - m[..., 0, 0] - m[..., 1, 1] + m[..., 2, 2],
-        1 + t,
-    ], axis=-1)
-    k = np.argmax(q, axis=-1)
-    out = np.empty(m.shape[:-2] + (4,))
-    for case in range(4):
-        sel = k == case
-        if not np.any(sel):
-            continue
-        mm = m[sel]
-        s = np.sqrt(np.maximum(q[sel, case], 1e-12)) * 2.0
-        if case == 3:
-            v = [mm[:, 2, 1] - mm[:, 1, 2], mm[:, 0, 2] - mm[:, 2, 0], mm[:, 1, 0] - mm[:, 0, 1], s * s / 4]
-        elif case == 0:
-            v = [s * s / 4, mm[:, 0, 1] + mm[:, 1, 0], mm[:, 0, 2] + mm[:, 2, 0], mm[:, 2, 1] - mm[:, 1, 2]]
-        elif case == 1:
-            v = [mm[:, 0, 1] + mm[:, 1, 0], s * s / 4, mm[:, 1, 2] + mm[:, 2, 1], mm[:, 0, 2] - mm[:, 2, 0]]
-        else:
-            v = [mm[:, 0, 2] + mm[:, 2, 0], mm[:, 1, 2] + mm[:, 2, 1], s * s / 4, mm[:, 1, 0] - mm[:, 0, 1]]
-        out[sel] = np.stack(v, axis=-1) / s[:, None]
-    return quat.normalize(out)
+def bvh_to_clip(motion: BvhMotion, figure: Figure = HUMANOID_FIGURE, name: str = "bvh",
+                joint_map: JointMap | None = None) -> MotionClip:
+    """The motion as a MotionClip of ``figure``'s skeleton (Y up, x forward), by direction retargeting;
+    joints by ``joint_map`` (default: ``map_joints`` of the file, which raises MotionFileError)."""
+    return retarget(motion, figure.skeleton, name, joint_map)

@@ -47,13 +47,28 @@ class Placement:
     family: str = ""
 
 
-def load_clip(path: Path, figure: Figure) -> MotionClip:
-    """A DeepMimic JSON clip (``.txt``/``.json``) or a BVH file (``.bvh``), on ``figure``'s skeleton."""
+@dataclass(frozen=True)
+class BvhOptions:
+    """How to read a BVH file's joints and size: a ``--joint-map`` file's roles, ``--unit``, ``--height``."""
+
+    joints: dict[str, str] | None = None
+    unit: str | None = None
+    height: float | None = None
+
+
+def load_clip(path: Path, figure: Figure, bvh: BvhOptions | None = None) -> tuple[MotionClip, str]:
+    """A DeepMimic JSON clip (``.txt``/``.json``) or a BVH file (``.bvh``), on ``figure``'s skeleton, and
+    what was recognised (for a BVH: the rig, unit and standing height; "" for DeepMimic)."""
     if path.suffix.lower() == ".bvh":
         from render.keyframes.bvh import bvh_to_clip, read_bvh
+        from sim.motion.joint_map import beside, map_joints
 
-        return bvh_to_clip(read_bvh(path), figure, path.stem)
-    return MotionClip.load(path)
+        o = bvh or BvhOptions()
+        motion = read_bvh(path)
+        joints = o.joints if o.joints is not None else beside(path)
+        jm = map_joints(motion, joints, unit=o.unit, height=o.height, source=str(path))
+        return bvh_to_clip(motion, figure, path.stem, jm), jm.describe()
+    return MotionClip.load(path), ""
 
 
 def key_times(clip: MotionClip, keys: int | None, frames: list[int] | None) -> list[float]:
@@ -172,8 +187,9 @@ def _pose_names(staged: StagedSet, manifest_text: str) -> set[str]:
 
 def import_clip(source: Path, set_dir: Path, placement: Placement, *, keys: int | None = None,
                 frames: list[int] | None = None, coords: list[float] | None = None,
-                span: tuple[float, float] | None = None) -> Path:
-    """Import a DeepMimic or BVH clip as one animation of the set in ``set_dir``; returns the manifest."""
+                span: tuple[float, float] | None = None, bvh: BvhOptions | None = None) -> tuple[Path, str]:
+    """Import a DeepMimic or BVH clip as one animation of the set in ``set_dir``; returns the manifest and
+    what was recognised in the file (``load_clip``)."""
     staged = StagedSet(set_dir)
     skeleton = "humanoid"
     manifest_text = staged.text(MANIFEST)
@@ -181,7 +197,7 @@ def import_clip(source: Path, set_dir: Path, placement: Placement, *, keys: int 
         m = re.search(r'^skeleton\s*=\s*"([^"]+)"', manifest_text, flags=re.M)
         skeleton = m.group(1) if m else skeleton
     figure = FIGURES.get(skeleton, FIGURES["humanoid"])
-    clip = load_clip(source, figure)  # DeepMimic joints drive any of our skeletons: same joints and axes
+    clip, recognised = load_clip(source, figure, bvh)  # DeepMimic joints drive any of our skeletons: same joints and axes
     times = key_times(clip, keys, frames)
     periodic = placement.axis in ("dx", "dz")
     xs = key_coords(placement.axis, periodic, len(times), coords, span)
@@ -189,4 +205,4 @@ def import_clip(source: Path, set_dir: Path, placement: Placement, *, keys: int 
     names = [f"{placement.name}_{k:02d}" for k in range(len(posed))]
     entries = [(float(x), n, "") for x, n in zip(xs, names, strict=True)]
     add_animation(staged, placement, entries, dict(zip(names, posed, strict=True)), source.name, skeleton)
-    return commit(staged, source)
+    return commit(staged, source), recognised

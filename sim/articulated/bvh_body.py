@@ -4,8 +4,8 @@
 
 - ``skeleton``: an ``ArticulatedSkeleton`` with one link per BVH joint (end sites are not links). The
   file is first turned into the skeletons' canonical frame — y up (hips → head), x forward, z to the
-  character's right (left → right thigh) — and scaled to metres (the unit that makes the standing figure
-  1–2.5 m tall: m, cm, inches or mm; otherwise scaled to 1.7 m). Every link frame is parallel to its
+  character's right (left → right thigh), both taken from the motion — and scaled to metres by the
+  joint map's unit (``sim.motion.joint_map``: detected, or given as a unit or a height). Every link frame is parallel to its
   parent's at rest, as in BVH, so a BVH joint's rotation *is* its link's rotation.
 - shapes: a capsule from each joint to its child's joint (to the end site at a leaf; the pelvis spans
   the two hip joints), radii by body part scaled with the figure's height; feet are boxes (a flat sole
@@ -15,7 +15,8 @@
   below its nearest moving ancestor down to it, so every moving link's orientation is exact; fixed joints
   in between keep their rest pose (their own bend is carried by the next moving joint below them).
 
-Joints are recognised by name (CMU, Mixamo, MotionBuilder spellings; a ``prefix:`` is dropped).
+Limb, neck and head joints come from ``sim.motion.joint_map`` (any common rig, or a ``--joint-map``);
+the other joints take a body part by name for their mass and radius.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import dataclasses
 import math
 import re
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -31,9 +33,10 @@ import numpy as np
 from sim.articulated.skeleton import HUMANOID_JOINTS, ArticulatedLink, ArticulatedSkeleton, JointKind
 from sim.motion import quaternion as quat
 from sim.motion.bvh import BvhMotion
+from sim.motion.joint_map import JointMap, beside, map_joints, words
 from sim.motion.mocap import JOINTS, MotionClip, MotionFileError
 
-__all__ = ["BvhBody", "SEED_MASSES_KG", "bvh_body", "body_part"]
+__all__ = ["BvhBody", "SEED_MASSES_KG", "bvh_body", "bvh_character", "body_part"]
 
 # the seed's table 4.1 (kg, for 70 kg), plus hands and toes, which it does not list
 SEED_MASSES_KG: dict[str, float] = {
@@ -64,7 +67,6 @@ _PARTS: tuple[tuple[str, str], ...] = (
     ("shoulder|clavicle|collar", "shoulder"), ("head", "head"), ("neck", "neck"),
     ("spine|chest|back|torso|abdomen|waist", "torso"), ("hip|pelvis|root", "hip"),
 )
-_UNITS = (1.0, 0.01, 0.0254, 0.001)  # metres, centimetres, inches, millimetres
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,14 +86,9 @@ def _plain(name: str) -> str:
 
 
 def _side(name: str) -> Literal["", "right", "left"]:
-    """"right"/"left" from RightUpLeg, right_hip, RThigh, r_foot, LeftArm, lShldr, …; "" for neither."""
-    n = name.split(":")[-1]
-    low = n.lower()
-    if "right" in low or re.match(r"^[Rr](?=[A-Z_])", n):
-        return "right"
-    if "left" in low or re.match(r"^[Ll](?=[A-Z_])", n):
-        return "left"
-    return ""
+    """"right"/"left" from RightUpLeg, right_hip, RThigh, r_foot, CC_Base_L_Thigh, …; "" for neither."""
+    side = words(name)[0]
+    return "right" if side == "right" else "left" if side == "left" else ""
 
 
 def body_part(name: str, is_root: bool = False) -> str:
@@ -103,6 +100,23 @@ def body_part(name: str, is_root: bool = False) -> str:
         if re.search(pattern, plain):
             return part
     return ""
+
+
+_ROLE_PART = {"clavicle": "shoulder", "upper_arm": "upper_arm", "forearm": "lower_arm", "hand": "hand",
+              "thigh": "upper_leg", "shin": "lower_leg", "foot": "foot", "toe": "toe", "head": "head", "neck": "neck"}
+
+
+def _role_channels(jm: JointMap) -> dict[str, str]:
+    """Joint-map role → the motion channel its joint drives (the chest channel is the first spine joint)."""
+    out = {"neck": "neck"}
+    for side in ("left", "right"):
+        out |= {f"{side}_thigh": f"{side}_hip", f"{side}_shin": f"{side}_knee", f"{side}_foot": f"{side}_ankle",
+                f"{side}_upper_arm": f"{side}_shoulder", f"{side}_forearm": f"{side}_elbow"}
+    return out
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
 
 
 def _frame_from(up: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -131,7 +145,7 @@ def _matrix_quat(m: np.ndarray) -> np.ndarray:
 
 
 def bvh_body(motion: BvhMotion, *, total_mass: float = 70.0, name: str = "bvh", loop: bool = False,
-             link_names: Literal["bvh", "channels"] = "bvh") -> BvhBody:
+             link_names: Literal["bvh", "channels"] = "bvh", joint_map: JointMap | None = None) -> BvhBody:
     """Build the body and its clip from a parsed BVH (``sim.motion.bvh.read_bvh``); ``loop``: the clip is
     a cycle (BVH cannot say so). ``link_names="channels"`` names each moving link after its motion channel
     ("right_hip", …; the others keep their BVH names), for code that finds links by the DeepMimic names.
@@ -149,30 +163,34 @@ def bvh_body(motion: BvhMotion, *, total_mass: float = 70.0, name: str = "bvh", 
         raise ValueError(f"total_mass: expected > 0 kg, got {total_mass}")
     if motion.local_rotations is None:
         raise MotionFileError(f"{name}: the BVH motion carries no joint rotations (parse it with sim.motion.bvh)")
+    jm = joint_map or map_joints(motion, source=name)
     joints = [b for b in range(len(motion.names)) if not motion.is_end(b)]
     parts = {b: body_part(motion.names[b], motion.parents[b] < 0) for b in joints}
     sides = {b: _side(motion.names[b]) for b in joints}
+    for role, b in jm.roles.items():  # the joint map decides what the names alone cannot (an ASF upper arm)
+        side, _, what = role.partition("_") if role.startswith(("left_", "right_")) else ("", "", role)
+        if what in _ROLE_PART and b in parts and motion.parents[b] >= 0:
+            parts[b], sides[b] = _ROLE_PART[what], side or sides[b]  # type: ignore[assignment]
+    role_channel = {jm.roles[r]: ch for r, ch in _role_channels(jm).items()}
     rest = motion.positions[0] * 0.0
     for b in range(len(motion.names)):  # the rest pose: offsets only
         if motion.parents[b] >= 0:
             rest[b] = rest[motion.parents[b]] + motion.offsets[b]
 
     def find(part: str, side: str = "") -> int:
-        for b in joints:
-            if parts[b] == part and sides[b] == side:
-                return b
-        raise MotionFileError(f"{name}: no {(side + ' ') if side else ''}{part.replace('_', ' ')} joint among "
-                              f"{', '.join(motion.names[j] for j in joints)}")
+        role = {"upper_leg": "thigh", "neck": "neck"}[part]
+        return jm.roles[f"{side}_{role}" if side else role]
 
     root = joints[0]
+    up = rest[jm.roles["head"]] - rest[jm.roles["hips"]]
     right = rest[find("upper_leg", "right")] - rest[find("upper_leg", "left")]
-    head = next((b for b in joints if parts[b] == "head"), None)
-    up = rest[find("neck") if head is None else head] - rest[root]
+    p = motion.positions  # the file's up in the motion: the offsets alone may lie down (iClone's rig)
+    moving_up = np.median(_unit(p[:, jm.roles["head"]] - p[:, jm.roles["hips"]]), axis=0)
+    if float(np.dot(_unit(up), _unit(moving_up))) < math.cos(math.radians(30.0)):
+        up = moving_up  # then the person's up and right as they move
+        right = np.median(_unit(p[:, jm.roles["right_thigh"]] - p[:, jm.roles["left_thigh"]]), axis=0)
     to_c = _frame_from(up, right)
-    heights = quat.rotate(to_c, rest)[:, 1]
-    raw_height = float(heights.max() - heights.min())
-    scale = next((u for u in _UNITS if 1.0 <= raw_height * u <= 2.5), 1.7 / max(raw_height, 1e-9))
-    height = raw_height * scale
+    scale, height = jm.scale, jm.height_m
     offsets = quat.rotate(to_c, motion.offsets) * scale
     # the first spine joint above the root carries the "chest" channel (the seed's hip-to-torso)
     torso = [b for b in joints if parts[b] == "torso"]
@@ -191,6 +209,8 @@ def bvh_body(motion: BvhMotion, *, total_mass: float = 70.0, name: str = "bvh", 
         side = sides[b] or "right"
         channel, kind = _MOVING.get(part, ("", "fixed"))
         channel = channel.replace("right", side) if channel.startswith("right") else channel
+        if channel and channel != "chest" and role_channel.get(b) != channel:
+            kind, channel = "fixed", ""  # a twist or extra joint of a moving part: the map's joint moves
         if b == root:
             kind, channel = "root", ""
         elif channel and channel in channel_of.values():
@@ -206,6 +226,22 @@ def bvh_body(motion: BvhMotion, *, total_mass: float = 70.0, name: str = "bvh", 
     skeleton = ArticulatedSkeleton(name, tuple(links), up_axis="y")
     clip = _clip(motion, joints, channel_of, to_c, scale, name, loop)
     return BvhBody(skeleton, clip, scale, to_c, tuple(joints), tuple(parts[b] for b in joints))
+
+
+def bvh_character(path: str, total_mass: float = 45.0) -> tuple[ArticulatedSkeleton, MotionClip]:
+    """A ragdoll spec's ``skeleton = "FILE.bvh"``: the file's own body (moving links named after their
+    channels, ``total_mass`` kg like the DeepMimic humanoid's 45) and its motion cut to its best loop."""
+    from sim.motion.bvh import read_bvh
+    from sim.motion.clips import best_cycle
+
+    try:
+        motion = read_bvh(path)
+        jm = map_joints(motion, beside(Path(path)), source=path)
+        body = bvh_body(motion, total_mass=total_mass, name=Path(path).stem, loop=True, link_names="channels",
+                        joint_map=jm)
+    except MotionFileError as e:
+        raise MotionFileError(f"skeleton: {e}") from None
+    return body.skeleton, best_cycle(body.clip)
 
 
 def _part_masses(joints: list[int], kids: dict[int, list[int]], parts: dict[int, str],

@@ -36,7 +36,8 @@ from sim.articulated.states import Readings, next_state
 from sim.articulated.tracking import JointTracker, PDCommand
 from sim.articulated.walking import WalkingBalance
 from sim.motion import quaternion as quat
-from sim.motion.mocap import MotionClip, pybullet_motion_path
+from sim.motion.clips import load_motion
+from sim.motion.mocap import MotionClip
 from sim.snapshot import CharacterState, LinkPose
 
 BLEND_S = 0.4  # s: joint targets blend from the current pose when a clip starts
@@ -90,7 +91,7 @@ class ArticulatedCharacter(WalkingBalance):
         self.recovery = Recovery(spec)  # finer steps after a push, and the balance gains meanwhile (.spec)
         self.stepped_finely = False  # the world steps finer now (for it or another character): recovery gains
         self._up = source_to_stage(skeleton)
-        self.walk = MotionReference(clip or MotionClip.load(pybullet_motion_path(spec.walk_clip)), skeleton)
+        self.walk = MotionReference(clip or load_motion(spec.walk_clip, "walk_clip", cycle=True), skeleton)
         self.ref = self.walk
         self.driven = self.walk.driven
         self._feet = (skeleton.foot("right"), skeleton.foot("left")) if any(x.foot for x in skeleton.links) else None
@@ -132,6 +133,7 @@ class ArticulatedCharacter(WalkingBalance):
         self._heading = heading
         self.external_assist_peak_n = 0.0
         self.external_assist_peak_nm = 0.0
+        self.external_assist_nm = 0.0  # the root assist torque of the last control tick, N·m
         self.falls = 0
         self.getups = 0
         self.last_push_force_n = 0.0

@@ -20,7 +20,7 @@ from sim.articulated.reference import MotionReference, ReferencePose
 from sim.articulated.skeleton import ArticulatedSkeleton
 from sim.articulated.spec import ArticulatedSpec
 from sim.articulated.tracking import JointLimits
-from sim.motion.mocap import MotionClip, pybullet_motion_path
+from sim.motion.clips import load_motion
 
 
 class GetUpClips:
@@ -34,7 +34,8 @@ class GetUpClips:
 
     def clip(self, face_up: bool) -> MotionReference:
         if face_up not in self._refs:
-            clip = MotionClip.load(pybullet_motion_path(self._names[int(face_up)]))
+            key = "getup_faceup_clip" if face_up else "getup_facedown_clip"
+            clip = load_motion(self._names[int(face_up)], key)
             self._refs[face_up] = MotionReference(clip, self._skeleton).limit(self._limits.clamp)
         return self._refs[face_up]
 

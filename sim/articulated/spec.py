@@ -37,10 +37,10 @@ class ArticulatedSpec:
 
     name: str = "ragdoll"
     body: Literal["articulated"] = "articulated"
-    skeleton: Literal["deepmimic_humanoid"] = "deepmimic_humanoid"
+    skeleton: str = "deepmimic_humanoid"  # or a BVH file: its own body walking its own motion (bvh_character)
     height: float = 1.65  # m, for drawing / snapshots
     com_height: float = 0.93  # m, centre of mass when standing (drawing: where the figure's com sits)
-    walk_clip: str = "walk"  # pybullet_data clips (sim.motion.mocap.pybullet_motion_path)
+    walk_clip: str = "walk"  # pybullet_data clips by name, or motion files (.bvh, .txt: sim.motion.clips)
     getup_faceup_clip: str = "getup_faceup"
     getup_facedown_clip: str = "getup_facedown"
     # tracking
@@ -157,8 +157,9 @@ class ArticulatedSpec:
             raise ValueError(f"name: expected a non-empty string, got {self.name!r}")
         if self.body != "articulated":
             raise ValueError(f"body: expected \"articulated\", got {self.body!r}")
-        if self.skeleton != "deepmimic_humanoid":
-            raise ValueError(f"skeleton: expected \"deepmimic_humanoid\", got {self.skeleton!r}")
+        if not isinstance(self.skeleton, str) or (self.skeleton != "deepmimic_humanoid"
+                                                   and not self.skeleton.lower().endswith(".bvh")):
+            raise ValueError(f"skeleton: expected \"deepmimic_humanoid\" or a .bvh file, got {self.skeleton!r}")
         if self.pd not in ("stable", "explicit"):
             raise ValueError(f"pd: expected \"stable\" or \"explicit\", got {self.pd!r}")
         for f in ("walk_clip", "getup_faceup_clip", "getup_facedown_clip"):

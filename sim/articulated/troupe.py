@@ -19,10 +19,12 @@ import pybullet as p
 
 from interaction.types import Impulse
 from sim.articulated import balance as bal
+from sim.articulated.bvh_body import bvh_character
 from sim.articulated.character import ArticulatedCharacter
 from sim.articulated.recovery import any_recovering, substeps_of
 from sim.articulated.skeleton import ArticulatedSkeleton, deepmimic_humanoid
 from sim.articulated.spec import ArticulatedSpec
+from sim.motion.mocap import MotionClip
 from sim.population import Footprint, Tick
 from sim.snapshot import CharacterSnapshot, CharacterState, ContactEvent, StateChange
 
@@ -38,6 +40,7 @@ class ArticulatedCharacters:
         self._client = client
         self._stage = stage
         self._skeletons: dict[str, ArticulatedSkeleton] = {}
+        self._clips: dict[str, MotionClip] = {}  # the walk of a skeleton made from a BVH file
         self.characters: dict[str, ArticulatedCharacter] = {}
         self.bodies: dict[int, str] = {}  # pybullet body id → name (for the contactor pool's forces)
         self._states: dict[str, CharacterState] = {}
@@ -55,8 +58,12 @@ class ArticulatedCharacters:
         """It walks its clip: it takes no options."""
         assert isinstance(spec, ArticulatedSpec)
         if spec.skeleton not in self._skeletons:
-            self._skeletons[spec.skeleton] = deepmimic_humanoid()
-        ch = ArticulatedCharacter(self._client, self._skeletons[spec.skeleton], spec, None, position, heading)
+            if spec.skeleton == "deepmimic_humanoid":
+                self._skeletons[spec.skeleton] = deepmimic_humanoid()
+            else:  # a BVH file: its own body, walking its own motion
+                self._skeletons[spec.skeleton], self._clips[spec.skeleton] = bvh_character(spec.skeleton)
+        ch = ArticulatedCharacter(self._client, self._skeletons[spec.skeleton], spec, self._clips.get(spec.skeleton),
+                                  position, heading)
         self.characters[name] = ch
         self.bodies[ch.body] = name
         self._states[name] = ch.state

@@ -137,6 +137,7 @@ class WalkingBalance:
             self._gains, self.state, self._walk_in() < 1.0, self._feet is not None, desired_root, orn, omega,
             self._dd, self._dv, self._heading, (float(q1.rot(self._up, r.root_pos)[2]), float(root[2]), float(vel[2])),
             rising, bool(self.getup_face_up))
+        self.external_assist_nm = 0.0 if torque is None else float(np.linalg.norm(torque))  # this tick's
         if torque is not None:
             self._torques.append((-1, torque.tolist()))
             self.external_assist_peak_nm = max(self.external_assist_peak_nm, float(np.linalg.norm(torque)))
