@@ -13,15 +13,14 @@ import struct
 import subprocess
 import sys
 import textwrap
-import threading
 import time
 import tomllib
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, TypeVar
 
 import numpy as np
 import pytest
+from hang_guard import within
 
 from sensors.untrusted import (
     MissingInput,
@@ -57,32 +56,12 @@ from sensors.untrusted import limits as L
 from sensors.untrusted.structured import json_shape, toml_shape
 
 ROOT = Path(__file__).resolve().parent.parent
-T = TypeVar("T")
-
-
-def _within(seconds: float, fn: Callable[[], T]) -> T:
-    """``fn()`` run in a daemon thread; fails the test (instead of hanging it) if it takes longer."""
-    box: dict[str, Any] = {}
-
-    def run() -> None:
-        try:
-            box["value"] = fn()
-        except BaseException as e:  # handed back to the test's thread
-            box["error"] = e
-
-    worker = threading.Thread(target=run, daemon=True)
-    worker.start()
-    worker.join(seconds)
-    assert not worker.is_alive(), f"hung for more than {seconds} s"
-    if "error" in box:
-        raise box["error"]
-    return box["value"]  # type: ignore[no-any-return]
 
 
 def _refused(fn: Callable[[], object], *words: str, seconds: float = 10.0) -> str:
     """The one-line message of the UntrustedInput that ``fn`` raises within ``seconds``, holding ``words``."""
     with pytest.raises(UntrustedInput) as caught:
-        _within(seconds, fn)
+        within(seconds, fn)
     message = str(caught.value)
     assert "\n" not in message and len(message) < 600, message
     for word in words:

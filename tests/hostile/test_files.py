@@ -6,12 +6,12 @@ never read it whole, never a traceback."""
 from __future__ import annotations
 
 import os
-import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
+from hang_guard import within
 
 from interaction.depth.calibration import DepthCalibration
 from interaction.webcam.calibration import Calibration
@@ -29,25 +29,6 @@ from sim.motion.bvh import read_bvh
 from sim.motion.mocap import MotionClip
 
 SECONDS = 10  # a refusal takes milliseconds; more than this is a hang
-
-
-def _within(seconds: float, fn: Callable[[], Any]) -> Any:
-    """``fn()`` in a daemon thread; the test fails (instead of hanging) if it takes longer."""
-    box: dict[str, Any] = {}
-
-    def run() -> None:
-        try:
-            box["value"] = fn()
-        except BaseException as e:  # handed back to the test's thread
-            box["error"] = e
-
-    worker = threading.Thread(target=run, daemon=True)
-    worker.start()
-    worker.join(seconds)
-    assert not worker.is_alive(), f"hung for more than {seconds} s"
-    if "error" in box:
-        raise box["error"]
-    return box.get("value")
 
 
 def _check_report(path: Path) -> None:
@@ -111,7 +92,7 @@ def test_every_reader_refuses_hostile_files_with_one_line(reader: str, kind: str
     read, syntax = READERS[reader]
     path = _hostile(kind, tmp_path, syntax)
     with pytest.raises(Exception) as caught:
-        _within(SECONDS, lambda: read(path))
+        within(SECONDS, lambda: read(path))
     message = user_facing(caught.value)
     assert message is not None, f"internal error: {type(caught.value).__name__}: {caught.value}"
     assert "\n" not in message and len(message) <= 500, message
@@ -124,7 +105,7 @@ def test_a_pose_file_entry_that_is_not_a_regular_file_is_refused(kind: str, tmp_
     manifest = tmp_path / "keyframes.toml"
     manifest.write_text(f'format = 1\nskeleton = "humanoid"\nheight = 1.7\nposes = ["{pose.name}"]\n')
     with pytest.raises(Exception) as caught:
-        _within(SECONDS, lambda: read_set(manifest))
+        within(SECONDS, lambda: read_set(manifest))
     message = user_facing(caught.value)
     assert message is not None and pose.name in message and "expected a regular file" in message, message
 
@@ -144,6 +125,6 @@ def test_a_bvh_hierarchy_nested_3000_deep_is_refused_by_its_bound(tmp_path: Path
     path.write_text("HIERARCHY ROOT r { OFFSET 0 0 0 CHANNELS 3 Xposition Yposition Zposition " + joints +
                     "}" * 3001 + " MOTION Frames: 1 Frame Time: 0.1 " + "0 " * 9003)
     with pytest.raises(Exception) as caught:
-        _within(SECONDS, lambda: read_bvh(path))
+        within(SECONDS, lambda: read_bvh(path))
     message = user_facing(caught.value)
     assert message is not None and "deep.bvh" in message and "more than 64 levels" in message, message
